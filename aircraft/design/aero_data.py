@@ -1,0 +1,112 @@
+"""Compute, save and load the aerodynamic and propeller data set of the solar UAV.
+
+``compute_aero_data`` runs the AeroSandbox analyses of :mod:`aircraft.design.analysis` and the
+propeller BEMT of :mod:`aircraft.design.propeller` (both need the ``aero`` extra). The result is
+saved as ``aero_data.json`` beside this module, so that the XML writer, which needs nothing but
+numpy, reproduces the committed aircraft files exactly on any machine.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict
+from importlib import metadata
+from pathlib import Path
+
+import numpy as np
+
+from .geometry import AircraftGeometry
+
+DATA_PATH = Path(__file__).with_name("aero_data.json")
+CRUISE_REYNOLDS = 1.0e6  # the breakpoint nearest the middle of the envelope
+RHO0_KG_M3 = 1.225
+G_MPS2 = 9.80665
+
+
+def _cruise_alpha_deg(polar_cl: np.ndarray, alpha_deg: np.ndarray, cl_required: float) -> float:
+    """Angle of attack of the linear range where the lift coefficient equals ``cl_required``."""
+    linear = (alpha_deg >= -8) & (alpha_deg <= 10)
+    return float(np.interp(cl_required, polar_cl[linear], alpha_deg[linear]))
+
+
+def compute_aero_data(geometry: AircraftGeometry | None = None) -> dict:
+    """All tables the XML writer needs, computed from ``geometry`` (about 20 s on two cores)."""
+    geometry = geometry or AircraftGeometry()
+    from . import analysis as an
+    from .propeller import propeller_coefficients
+
+    alpha = np.array(an.ALPHA_DEG, dtype=float)
+    j_cruise = an.REYNOLDS.index(CRUISE_REYNOLDS)
+    cl_cruise = geometry.mass_kg * G_MPS2 / (0.5 * RHO0_KG_M3 * an.REFERENCE_EAS_MPS**2 * geometry.reference_area_m2)
+
+    # Neutral point from the built-up polar about a reference point, then the CG at the chosen
+    # static margin ahead of it; every table after that is computed about the CG.
+    x_ref_m = geometry.wing.root_chord_m / 4.0
+    polar_ref = an.longitudinal_polar(geometry, x_ref_m)
+    alpha_cruise = _cruise_alpha_deg(polar_ref["CL"][:, j_cruise], alpha, cl_cruise)
+    da = 1.0
+    cl_a = np.interp([alpha_cruise - da, alpha_cruise + da], alpha, polar_ref["CL"][:, j_cruise])
+    cm_a = np.interp([alpha_cruise - da, alpha_cruise + da], alpha, polar_ref["Cm"][:, j_cruise])
+    x_np_m = x_ref_m - (cm_a[1] - cm_a[0]) / (cl_a[1] - cl_a[0]) * geometry.reference_chord_m
+    cg_x_m = x_np_m - geometry.static_margin * geometry.reference_chord_m
+
+    polar = an.longitudinal_polar(geometry, cg_x_m)
+    slopes = an.lift_slopes(geometry)
+    data = {
+        "meta": {
+            "generator": "aircraft.design.aero_data.compute_aero_data",
+            "aerosandbox": metadata.version("aerosandbox"),
+            "neuralfoil": metadata.version("neuralfoil"),
+            "geometry": asdict(geometry),
+        },
+        "stability": {
+            "cg_x_m": cg_x_m,
+            "neutral_point_x_m": float(x_np_m),
+            "static_margin": geometry.static_margin,
+            "cruise_cl": cl_cruise,
+            "cruise_alpha_deg": alpha_cruise,
+            "lift_slopes_per_rad": slopes,
+        },
+        "grids": {
+            "alpha_deg": list(an.ALPHA_DEG),
+            "reynolds": list(an.REYNOLDS),
+            "vlm_alpha_deg": list(an.VLM_ALPHA_DEG),
+            "beta_deg": list(an.BETA_DEG),
+            "deflection_deg": list(an.DEFLECTION_DEG),
+        },
+        "polar": polar,
+        "sideslip": an.sideslip_increments(geometry, cg_x_m, alpha_cruise),
+        "vlm": an.vlm_derivatives(geometry, cg_x_m),
+        "controls": an.control_increments(geometry, cg_x_m, slopes),
+    }
+    prop = propeller_coefficients(geometry.propeller)
+    data["propeller"] = {"J": prop.advance_ratio, "CT": prop.thrust_coeff, "CP": prop.power_coeff}
+    return _to_plain(data)
+
+
+def _to_plain(obj):
+    """numpy arrays and scalars to lists and floats, rounded for a stable, reviewable file."""
+    if isinstance(obj, dict):
+        return {k: _to_plain(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_to_plain(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _to_plain(obj.tolist())
+    if isinstance(obj, (float, np.floating)):
+        return float(f"{float(obj):.7g}")
+    if isinstance(obj, np.integer):
+        return int(obj)
+    return obj
+
+
+def save(data: dict, path: Path = DATA_PATH) -> None:
+    """Write the data set as indented JSON."""
+    path.write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
+
+
+def load(path: Path = DATA_PATH) -> dict:
+    """Read a saved data set."""
+    try:
+        return json.loads(path.read_text())
+    except (OSError, json.JSONDecodeError) as err:
+        raise ValueError(f"cannot read the aerodynamic data set {path}: {err}") from err

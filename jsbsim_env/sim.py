@@ -1,0 +1,234 @@
+"""The one place that owns JSBSim: loading the solar UAV, initial conditions, trim, stepping.
+
+JSBSim works in imperial units; this module converts to SI once, and everything above it uses
+names with units (``altitude_m``, ``airspeed_eas_mps``, ``roll_rad``).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+import aircraft
+
+FT_TO_M = 0.3048
+M_TO_FT = 1.0 / FT_TO_M
+LBF_TO_N = 4.4482216152605
+SLUG_FT2_TO_KG_M2 = 1.3558179483314
+RHO0_KG_M3 = 1.225  # sea-level density of the 1976 standard atmosphere
+RHO0_SLUG_FT3 = 0.0023768907688269184  # the same in JSBSim's units
+SLUG_FT3_TO_KG_M3 = 515.378818
+
+ALTITUDE_RANGE_M = (0.0, 20000.0)  # the flight envelope of the aircraft (SPEC section 1)
+EAS_RANGE_MPS = (8.0, 12.0)
+DEFAULT_SIM_RATE_HZ = 120.0
+
+# JSBSim's FCS inputs, normalised to +-1 (aileron, elevator, rudder) or 0..1 (throttle).
+CONTROL_INPUTS = ("fcs/aileron-cmd-norm", "fcs/elevator-cmd-norm", "fcs/rudder-cmd-norm",
+                  "fcs/throttle-cmd-norm[0]")
+SURFACE_LIMITS_DEG = {"aileron": 30.0, "elevator": 30.0, "rudder": 20.0}
+
+
+class ModelError(RuntimeError):
+    """The aircraft files could not be loaded."""
+
+
+class TrimError(RuntimeError):
+    """No trimmed state exists (or none was found) at the requested flight condition."""
+
+
+@dataclass(frozen=True)
+class TrimResult:
+    """A steady, wings-level, constant-altitude flight condition."""
+
+    altitude_m: float
+    airspeed_eas_mps: float
+    airspeed_tas_mps: float
+    alpha_deg: float
+    pitch_deg: float
+    elevator_deg: float
+    throttle: float
+    rotor_rpm: float
+    thrust_n: float
+    residual_accel_mps2: float  # largest remaining translational acceleration
+    residual_ang_accel_radps2: float  # largest remaining angular acceleration
+
+    def as_dict(self) -> dict[str, float]:
+        """Plain dict, for JSON output."""
+        return dict(self.__dict__)
+
+
+def _quiet_jsbsim() -> None:
+    # JSBSim prints a banner and model notes to stdout unless its debug level is 0 before loading.
+    os.environ.setdefault("JSBSIM_DEBUG", "0")
+
+
+class Simulation:
+    """A JSBSim instance flying the solar UAV.
+
+    Args:
+        root: JSBSim root folder; defaults to the one that ships with the package.
+        sim_rate_hz: integration rate of the flight dynamics.
+        aircraft_name: aircraft folder under ``<root>/aircraft``.
+    """
+
+    def __init__(self, root: Path | str | None = None, sim_rate_hz: float = DEFAULT_SIM_RATE_HZ,
+                 aircraft_name: str = aircraft.AIRCRAFT_NAME):
+        import jsbsim
+
+        _quiet_jsbsim()
+        self.root = Path(root) if root is not None else aircraft.jsbsim_root()
+        self.fdm = jsbsim.FGFDMExec(str(self.root), None)
+        self.fdm.set_debug_level(0)
+        self.fdm.set_dt(1.0 / sim_rate_hz)
+        try:
+            loaded = self.fdm.load_model(aircraft_name)
+        except Exception as err:  # JSBSim raises BaseError or RuntimeError on malformed XML
+            raise ModelError(f"JSBSim could not load aircraft {aircraft_name!r} from {self.root}: {err}") from err
+        if not loaded:
+            raise ModelError(f"JSBSim could not load aircraft {aircraft_name!r} from {self.root}/aircraft")
+        self.dt_s = 1.0 / sim_rate_hz
+        self.engine_count = self.fdm.get_propulsion().get_num_engines()
+
+    # ------------------------------------------------------------------ properties
+    def __getitem__(self, name: str) -> float:
+        return self.fdm[name]
+
+    def __setitem__(self, name: str, value: float) -> None:
+        self.fdm[name] = value
+
+    def set_controls(self, aileron_deg: float, elevator_deg: float, rudder_deg: float, throttle: float) -> None:
+        """Command the surfaces (degrees, SPEC sign conventions) and the throttle (0..1)."""
+        values = (aileron_deg / SURFACE_LIMITS_DEG["aileron"], elevator_deg / SURFACE_LIMITS_DEG["elevator"],
+                  rudder_deg / SURFACE_LIMITS_DEG["rudder"], throttle)
+        for name, value in zip(CONTROL_INPUTS, values):
+            self.fdm[name] = value
+
+    def density_kg_m3(self, altitude_m: float) -> float:
+        """Air density at ``altitude_m`` from JSBSim's atmosphere (US 1976 standard by default)."""
+        self.fdm["ic/h-sl-ft"] = altitude_m * M_TO_FT
+        self.fdm.run_ic()
+        return self.fdm["atmosphere/rho-slugs_ft3"] * SLUG_FT3_TO_KG_M3
+
+    def airspeed_eas_mps(self) -> float:
+        """Equivalent airspeed sqrt(rho/rho0) * V_true."""
+        rho = self.fdm["atmosphere/rho-slugs_ft3"]
+        return math.sqrt(rho / RHO0_SLUG_FT3) * self.fdm["velocities/vt-fps"] * FT_TO_M
+
+    # ------------------------------------------------------------------ initial conditions
+    def set_initial_conditions(self, altitude_m: float, airspeed_tas_mps: float, alpha_deg: float = 0.0,
+                               pitch_deg: float | None = None, roll_deg: float = 0.0, heading_deg: float = 0.0,
+                               beta_deg: float = 0.0, rates_radps=(0.0, 0.0, 0.0)) -> None:
+        """Place the aircraft and run JSBSim's initial-condition pass."""
+        f = self.fdm
+        f["ic/h-sl-ft"] = altitude_m * M_TO_FT
+        f["ic/vt-fps"] = airspeed_tas_mps * M_TO_FT
+        f["ic/alpha-deg"] = alpha_deg
+        f["ic/beta-deg"] = beta_deg
+        f["ic/theta-deg"] = alpha_deg if pitch_deg is None else pitch_deg
+        f["ic/phi-deg"] = roll_deg
+        f["ic/psi-true-deg"] = heading_deg
+        f["ic/p-rad_sec"], f["ic/q-rad_sec"], f["ic/r-rad_sec"] = rates_radps
+        if not self.fdm.run_ic():
+            raise TrimError("JSBSim rejected the initial conditions")
+        f["propulsion/set-running"] = -1
+
+    def settle_actuators(self, max_time_s: float = 8.0, tol_deg: float = 1e-4, tol_rpm: float = 0.05) -> None:
+        """Fly on until the servos, the rotor-speed reference and the rotors reach their commands.
+
+        Used to bring the actuator states to a new command before the initial conditions are set
+        again: JSBSim's initial-condition pass keeps the actuator and rotor states.
+        """
+        f = self.fdm
+        rpm_prev = None
+        for _ in range(int(max_time_s / self.dt_s)):
+            f.run()
+            ref = f["fcs/rotor-speed-ref-rpm"]
+            rpm = f["propulsion/engine[0]/propeller-rpm"]
+            surfaces_done = all(abs(f[f"fcs/{s}-cmd-deg"] - f[f"fcs/{s}-pos-deg"]) < tol_deg
+                                for s in ("elevator", "aileron", "rudder"))
+            # At full motor power the rotor cannot reach the reference: settled once it stops moving.
+            power_limited = f["fcs/throttle-pos-norm[0]"] >= 1.0 - 1e-9 and rpm_prev is not None \
+                and abs(rpm - rpm_prev) < tol_rpm * self.dt_s
+            if surfaces_done and abs(ref - f["fcs/rotor-speed-cmd-rpm"]) < tol_rpm \
+                    and (abs(rpm - ref) < tol_rpm or power_limited):
+                return
+            rpm_prev = rpm
+
+    # ------------------------------------------------------------------ trim
+    def _residuals(self, altitude_m, tas_mps, x) -> np.ndarray:
+        """Body accelerations (m/s², rad/s²) of steady level flight at alpha, elevator, throttle = x."""
+        alpha_deg, elevator_deg, throttle = x
+        self.set_initial_conditions(altitude_m, tas_mps, alpha_deg=alpha_deg)
+        self.set_controls(0.0, elevator_deg, 0.0, throttle)
+        self.settle_actuators()
+        self.set_initial_conditions(altitude_m, tas_mps, alpha_deg=alpha_deg)
+        f = self.fdm
+        return np.array([f["accelerations/udot-ft_sec2"] * FT_TO_M, f["accelerations/wdot-ft_sec2"] * FT_TO_M,
+                         f["accelerations/qdot-rad_sec2"]])
+
+    def trim(self, altitude_m: float, airspeed_eas_mps: float, check_envelope: bool = True,
+             max_iterations: int = 30) -> TrimResult:
+        """Find steady, wings-level, level flight and leave the aircraft in it.
+
+        Newton iteration on angle of attack, elevator and throttle with the residual body
+        accelerations computed by JSBSim (the rotors at the speed the throttle commands). The
+        lateral channel is trimmed by symmetry.
+
+        Raises:
+            TrimError: outside the flight envelope, or no trim with the controls inside their limits.
+        """
+        if not (math.isfinite(altitude_m) and math.isfinite(airspeed_eas_mps)):
+            raise TrimError(f"altitude {altitude_m} m and EAS {airspeed_eas_mps} m/s must be finite")
+        if check_envelope:
+            lo, hi = ALTITUDE_RANGE_M
+            if not lo <= altitude_m <= hi:
+                raise TrimError(f"altitude {altitude_m:g} m is outside the flight envelope {lo:g}-{hi:g} m")
+            lo, hi = EAS_RANGE_MPS
+            if not lo <= airspeed_eas_mps <= hi:
+                raise TrimError(f"equivalent airspeed {airspeed_eas_mps:g} m/s is outside the flight envelope "
+                                f"{lo:g}-{hi:g} m/s")
+        tas_mps = airspeed_eas_mps * math.sqrt(RHO0_KG_M3 / self.density_kg_m3(altitude_m))
+        x = np.array([0.0, 0.0, 0.5])
+        steps = np.array([0.05, 0.05, 0.002])
+        scale = np.array([1.0, 1.0, 10.0])  # weight the pitch acceleration like the translational ones
+        bounds = (np.array([-10.0, -30.0, 0.0]), np.array([14.0, 30.0, 1.0]))
+        r = self._residuals(altitude_m, tas_mps, x)
+        for _ in range(max_iterations):
+            if np.all(np.abs(r[:2]) < 1e-4) and abs(r[2]) < 1e-5:
+                break
+            jac = np.empty((3, 3))
+            for k in range(3):
+                dx = np.zeros(3)
+                dx[k] = steps[k]
+                jac[:, k] = (self._residuals(altitude_m, tas_mps, x + dx) - r) / steps[k]
+            delta = np.linalg.lstsq(jac * scale[:, None], -r * scale, rcond=None)[0]
+            step_limit = np.array([3.0, 5.0, 0.2])
+            delta = np.clip(delta, -step_limit, step_limit)
+            x_new = np.clip(x + delta, *bounds)
+            r_new = self._residuals(altitude_m, tas_mps, x_new)
+            if np.linalg.norm(r_new * scale) > np.linalg.norm(r * scale) and np.any(x_new != x + delta):
+                # Pinned at a limit and not improving: the trim needs a control beyond its range.
+                break
+            x, r = x_new, r_new
+        else:
+            r = self._residuals(altitude_m, tas_mps, x)
+        if not (np.all(np.abs(r[:2]) < 1e-3) and abs(r[2]) < 1e-4):
+            names = ("angle of attack", "elevator", "throttle")
+            pinned = [n for n, v, lo, hi in zip(names, x, *bounds) if v <= lo + 1e-9 or v >= hi - 1e-9]
+            why = f"{', '.join(pinned)} at its limit" if pinned else "no convergence"
+            raise TrimError(f"no trim at {altitude_m:g} m, EAS {airspeed_eas_mps:g} m/s: {why} "
+                            f"(residual accelerations {np.array2string(r, precision=4)})")
+        self._residuals(altitude_m, tas_mps, x)  # leave the aircraft in the trimmed state
+        f = self.fdm
+        return TrimResult(
+            altitude_m=altitude_m, airspeed_eas_mps=airspeed_eas_mps, airspeed_tas_mps=tas_mps,
+            alpha_deg=float(x[0]), pitch_deg=float(f["attitude/theta-deg"]), elevator_deg=float(x[1]),
+            throttle=float(x[2]), rotor_rpm=float(f["propulsion/engine[0]/propeller-rpm"]),
+            thrust_n=float(sum(f[f"propulsion/engine[{i}]/thrust-lbs"] for i in range(self.engine_count)) * LBF_TO_N),
+            residual_accel_mps2=float(np.max(np.abs(r[:2]))), residual_ang_accel_radps2=float(abs(r[2])),
+        )

@@ -1,0 +1,185 @@
+"""The solar UAV as a JSBSim model: files, loading, actuators, scales, atmosphere."""
+
+from __future__ import annotations
+
+import math
+import shutil
+
+import numpy as np
+import pytest
+
+import aircraft
+from aircraft.design import aero_data, xml_writer
+from aircraft.design.geometry import AircraftGeometry
+from jsbsim_env.sim import FT_TO_M, ModelError, Simulation
+
+
+@pytest.fixture(scope="module")
+def sim() -> Simulation:
+    return Simulation()
+
+
+def test_committed_xml_is_what_the_generator_writes():
+    files = xml_writer.aircraft_files(AircraftGeometry(), aero_data.load())
+    on_disk = {p.relative_to(aircraft.aircraft_dir()).as_posix()
+               for p in aircraft.aircraft_dir().rglob("*.xml")}
+    assert on_disk == set(files)
+    for rel, text in files.items():
+        assert (aircraft.aircraft_dir() / rel).read_text() == text, f"{rel} differs from the generator's output"
+
+
+def test_every_reset_file_runs():
+    names = aircraft.reset_files()
+    assert len(names) >= 3
+    for name in names:
+        s = Simulation()
+        assert s.fdm.load_ic(name, True)
+        assert s.fdm.run_ic()
+        for _ in range(60):
+            assert s.fdm.run()
+        assert math.isfinite(s["position/h-sl-ft"]) and s["position/h-sl-ft"] > 0
+
+
+def test_mass_and_inertia_match_table_1(sim):
+    sim.set_initial_conditions(1000.0, 10.5)
+    assert sim["inertia/mass-slugs"] * 14.5939 == pytest.approx(359.0, rel=1e-6)
+    j = sim.fdm.get_mass_balance().get_J() * 1.3558179483314
+    assert j[0, 0] == pytest.approx(15221.0, rel=2e-4)  # JSBSim's own unit conversion
+    assert j[1, 1] == pytest.approx(1827.5, rel=2e-4)
+    assert j[2, 2] == pytest.approx(16967.0, rel=2e-4)
+    # JSBSim's tensor holds -Ixz off the diagonal for a product of inertia Ixz = +37 kg m².
+    assert j[0, 2] == pytest.approx(-37.0, rel=2e-4)
+
+
+def _step_response(sim: Simulation, prop_in: str, value: float, prop_out: str, seconds: float) -> np.ndarray:
+    sim.set_initial_conditions(1000.0, 10.5)
+    sim.set_controls(0.0, 0.0, 0.0, 0.2)
+    sim.settle_actuators()
+    sim[prop_in] = value
+    out = []
+    for _ in range(round(seconds / sim.dt_s)):
+        sim.fdm.run()
+        out.append(sim[prop_out])
+    return np.array(out)
+
+
+def test_surface_step_follows_first_order_lag(sim):
+    # 1 deg step: far below the rate limit (100 deg/s x 0.02 s = 2 deg), so a pure lag.
+    y = _step_response(sim, "fcs/elevator-cmd-norm", 1.0 / 30.0, "fcs/elevator-pos-deg", 0.2)
+    # JSBSim's lag is the Tustin (bilinear) discretisation of 1/(T s + 1), T = 0.02 s.
+    a_dt = sim.dt_s / 0.02
+    ca, cb = a_dt / (2 + a_dt), (2 - a_dt) / (2 + a_dt)
+    expected, prev_in, prev_out = [], 0.0, 0.0
+    for _ in y:
+        prev_out = ca * (1.0 + prev_in) + cb * prev_out
+        prev_in = 1.0
+        expected.append(prev_out)
+    assert np.max(np.abs(y - np.array(expected))) < 1e-9
+    # Its 63.2 % point lies within one step after the continuous lag's time constant (the bilinear
+    # step response trails the continuous one by about half a step).
+    t = np.arange(1, y.size + 1) * sim.dt_s
+    t_63 = np.interp(1 - math.exp(-1), y, t)
+    assert 0.02 <= t_63 <= 0.02 + sim.dt_s
+
+
+def test_surface_large_step_is_rate_limited(sim):
+    y = _step_response(sim, "fcs/elevator-cmd-norm", 20.0 / 30.0, "fcs/elevator-pos-deg", 0.5)
+    rates = np.diff(y) / sim.dt_s
+    assert np.max(rates) == pytest.approx(100.0, rel=1e-6)
+    # 20 deg at 100 deg/s takes 0.2 s, plus the lag's tail.
+    t_90 = (np.argmax(y >= 18.0) + 1) * sim.dt_s
+    assert 0.17 <= t_90 <= 0.25
+
+
+def test_backlash_holds_small_reversals(sim):
+    sim["fcs/backlash-width-deg"] = 0.3
+    try:
+        y = _step_response(sim, "fcs/elevator-cmd-norm", 2.0 / 30.0, "fcs/elevator-pos-deg", 0.5)
+        assert y[-1] == pytest.approx(2.0 - 0.15, abs=1e-3)  # takes up half the play
+        held = y[-1]
+        sim["fcs/elevator-cmd-norm"] = (2.0 - 0.2) / 30.0  # reversal smaller than the play
+        for _ in range(60):
+            sim.fdm.run()
+        assert sim["fcs/elevator-pos-deg"] == pytest.approx(held, abs=1e-9)
+        sim["fcs/elevator-cmd-norm"] = (2.0 - 1.0) / 30.0  # larger reversal: moves by the excess
+        for _ in range(120):
+            sim.fdm.run()
+        assert sim["fcs/elevator-pos-deg"] == pytest.approx(1.0 + 0.15, abs=1e-3)
+    finally:
+        sim["fcs/backlash-width-deg"] = 0.0
+
+
+def test_rotor_speed_follows_lag_and_rate_limit(sim):
+    sim.set_initial_conditions(20000.0, 37.1)
+    sim.set_controls(0.0, 0.0, 0.0, 0.5)
+    sim.settle_actuators()
+    sim["fcs/throttle-cmd-norm[0]"] = 0.7  # +360 rpm
+    ref, rpm = [], []
+    for _ in range(int(2.0 / sim.dt_s)):
+        sim.fdm.run()
+        ref.append(sim["fcs/rotor-speed-ref-rpm"])
+        rpm.append(sim["propulsion/engine[0]/propeller-rpm"])
+    ref, rpm = np.array(ref), np.array(rpm)
+    assert np.max(np.diff(ref)) / sim.dt_s == pytest.approx(480.0, rel=1e-6)
+    assert ref[-1] == pytest.approx(0.7 * 1800.0, abs=0.5)
+    # The motor's speed loop keeps the rotor within a few per cent of the reference.
+    assert np.max(np.abs(rpm[30:] - ref[30:])) < 0.05 * 1800.0
+
+
+@pytest.mark.parametrize("term", ["CL0", "CDalpha", "CYbeta", "Clp", "Cmde", "Cnr", "Clda", "CYdr"])
+def test_scale_property_scales_its_term(term):
+    s = Simulation()
+    s.set_initial_conditions(5000.0, 15.0, alpha_deg=4.0, beta_deg=3.0, rates_radps=(0.05, 0.03, 0.04))
+    s.set_controls(5.0, -4.0, 3.0, 0.3)
+    s.settle_actuators()
+    s.set_initial_conditions(5000.0, 15.0, alpha_deg=4.0, beta_deg=3.0, rates_radps=(0.05, 0.03, 0.04))
+    base = s[f"aero/coefficient/{term}"]
+    assert abs(base) > 1e-6
+    s[f"aero/scale/{term}"] = 1.2
+    s.fdm.run_ic()
+    assert s[f"aero/coefficient/{term}"] == pytest.approx(1.2 * base, rel=1e-9)
+    s.fdm.reset_to_initial_conditions(0)
+    assert s[f"aero/scale/{term}"] == 1.2  # persists across resets
+
+
+def test_inertia_scale_slows_roll_response():
+    """The roll acceleration an aileron deflection adds falls as 1/scale."""
+    increments = []
+    for scale in (1.0, 1.15):
+        pdot = []
+        for aileron_deg in (0.0, 10.0):
+            s = Simulation()
+            s["aero/scale/I"] = scale
+            s.set_initial_conditions(1000.0, 10.5)
+            s.set_controls(aileron_deg, 0.0, 0.0, 0.15)
+            s.settle_actuators()
+            s.set_initial_conditions(1000.0, 10.5)
+            pdot.append(s["accelerations/pdot-rad_sec2"])
+        increments.append(pdot[1] - pdot[0])
+    assert abs(increments[0]) > 1e-3
+    assert increments[1] == pytest.approx(increments[0] / 1.15, rel=1e-6)
+
+
+# US Standard Atmosphere 1976: geopotential altitude (m) -> density (kg/m³).
+ATMOSPHERE_1976 = {0.0: 1.2250, 5000.0: 0.73612, 11000.0: 0.36392, 20000.0: 0.088035}
+
+
+@pytest.mark.parametrize("altitude_m, rho_kg_m3", ATMOSPHERE_1976.items())
+def test_atmosphere_matches_1976_table(sim, altitude_m, rho_kg_m3):
+    sim.set_initial_conditions(altitude_m, 20.0)
+    # JSBSim's altitude is geometric; the table's is geopotential (differs by 0.3 % at 20 km).
+    r_earth_m = 6356766.0
+    geometric_m = r_earth_m * altitude_m / (r_earth_m - altitude_m)
+    sim.set_initial_conditions(geometric_m, 20.0)
+    assert sim.fdm["atmosphere/rho-slugs_ft3"] * 515.378818 == pytest.approx(rho_kg_m3, rel=2e-3)
+    v_tas = sim["velocities/vt-fps"] * FT_TO_M
+    assert sim.airspeed_eas_mps() == pytest.approx(math.sqrt(rho_kg_m3 / 1.225) * v_tas, rel=2e-3)
+
+
+def test_malformed_aircraft_file_gives_clear_error(tmp_path):
+    root = tmp_path / "root"
+    shutil.copytree(aircraft.aircraft_dir(), root / "aircraft" / "solar_uav")
+    aero = root / "aircraft" / "solar_uav" / "Aerodynamics.xml"
+    aero.write_text(aero.read_text()[: len(aero.read_text()) // 2])  # truncated mid-element
+    with pytest.raises(ModelError, match="solar_uav"):
+        Simulation(root=root)

@@ -1,0 +1,1 @@
+"""Training of recurrent Soft Actor-Critic attitude controllers (see scripts/train_torchrl.py)."""
