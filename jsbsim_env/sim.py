@@ -93,6 +93,7 @@ class Simulation:
             raise ModelError(f"JSBSim could not load aircraft {aircraft_name!r} from {self.root}/aircraft")
         self.dt_s = 1.0 / sim_rate_hz
         self.engine_count = self.fdm.get_propulsion().get_num_engines()
+        self._engines_running = False
 
     # ------------------------------------------------------------------ properties
     def __getitem__(self, name: str) -> float:
@@ -135,7 +136,11 @@ class Simulation:
         f["ic/p-rad_sec"], f["ic/q-rad_sec"], f["ic/r-rad_sec"] = rates_radps
         if not self.fdm.run_ic():
             raise TrimError("JSBSim rejected the initial conditions")
-        f["propulsion/set-running"] = -1
+        if not self._engines_running:
+            # Only once: JSBSim's engine start re-initialises the rotors, which must keep their speed
+            # across the initial-condition passes of a trim.
+            f["propulsion/set-running"] = -1
+            self._engines_running = True
 
     def settle_actuators(self, max_time_s: float = 8.0, tol_deg: float = 1e-4, tol_rpm: float = 0.05) -> None:
         """Fly on until the servos, the rotor-speed reference and the rotors reach their commands.
@@ -193,7 +198,9 @@ class Simulation:
                 raise TrimError(f"equivalent airspeed {airspeed_eas_mps:g} m/s is outside the flight envelope "
                                 f"{lo:g}-{hi:g} m/s")
         tas_mps = airspeed_eas_mps * math.sqrt(RHO0_KG_M3 / self.density_kg_m3(altitude_m))
-        x = np.array([0.0, 0.0, 0.5])
+        # Start where the rotor speed scales with true airspeed (constant advance ratio at constant
+        # EAS): away from the motor's power limit, where the throttle has no effect on thrust.
+        x = np.array([0.0, 0.0, float(np.clip(0.014 * tas_mps, 0.05, 0.9))])
         steps = np.array([0.05, 0.05, 0.002])
         scale = np.array([1.0, 1.0, 10.0])  # weight the pitch acceleration like the translational ones
         bounds = (np.array([-10.0, -30.0, 0.0]), np.array([14.0, 30.0, 1.0]))
