@@ -26,6 +26,8 @@ SLUG_FT3_TO_KG_M3 = 515.378818
 ALTITUDE_RANGE_M = (0.0, 20000.0)  # the flight envelope of the aircraft (SPEC section 1)
 EAS_RANGE_MPS = (8.0, 12.0)
 DEFAULT_SIM_RATE_HZ = 120.0
+# Trim's first throttle guess per m/s of true airspeed (cruise trims lie at 0.013-0.015).
+THROTTLE_GUESS_PER_TAS_S_PER_M = 0.014
 
 # JSBSim's FCS inputs, normalised to +-1 (aileron, elevator, rudder) or 0..1 (throttle).
 CONTROL_INPUTS = ("fcs/aileron-cmd-norm", "fcs/elevator-cmd-norm", "fcs/rudder-cmd-norm",
@@ -93,7 +95,11 @@ class Simulation:
             raise ModelError(f"JSBSim could not load aircraft {aircraft_name!r} from {self.root}/aircraft")
         self.dt_s = 1.0 / sim_rate_hz
         self.engine_count = self.fdm.get_propulsion().get_num_engines()
-        self._engines_running = False
+        # Start the motors once: JSBSim's engine start re-initialises the rotors, which must keep
+        # their speed across the initial-condition passes of a trim.
+        if not self.fdm.run_ic():
+            raise ModelError(f"JSBSim could not initialise aircraft {aircraft_name!r}")
+        self.fdm["propulsion/set-running"] = -1
 
     # ------------------------------------------------------------------ properties
     def __getitem__(self, name: str) -> float:
@@ -136,11 +142,6 @@ class Simulation:
         f["ic/p-rad_sec"], f["ic/q-rad_sec"], f["ic/r-rad_sec"] = rates_radps
         if not self.fdm.run_ic():
             raise TrimError("JSBSim rejected the initial conditions")
-        if not self._engines_running:
-            # Only once: JSBSim's engine start re-initialises the rotors, which must keep their speed
-            # across the initial-condition passes of a trim.
-            f["propulsion/set-running"] = -1
-            self._engines_running = True
 
     def settle_actuators(self, max_time_s: float = 8.0, tol_deg: float = 1e-4, tol_rpm: float = 0.05) -> None:
         """Fly on until the servos, the rotor-speed reference and the rotors reach their commands.
@@ -200,7 +201,7 @@ class Simulation:
         tas_mps = airspeed_eas_mps * math.sqrt(RHO0_KG_M3 / self.density_kg_m3(altitude_m))
         # Start where the rotor speed scales with true airspeed (constant advance ratio at constant
         # EAS): away from the motor's power limit, where the throttle has no effect on thrust.
-        x = np.array([0.0, 0.0, float(np.clip(0.014 * tas_mps, 0.05, 0.9))])
+        x = np.array([0.0, 0.0, float(np.clip(THROTTLE_GUESS_PER_TAS_S_PER_M * tas_mps, 0.05, 0.9))])
         steps = np.array([0.05, 0.05, 0.002])
         scale = np.array([1.0, 1.0, 10.0])  # weight the pitch acceleration like the translational ones
         bounds = (np.array([-10.0, -30.0, 0.0]), np.array([14.0, 30.0, 1.0]))
@@ -222,8 +223,6 @@ class Simulation:
                 # Pinned at a limit and not improving: the trim needs a control beyond its range.
                 break
             x, r = x_new, r_new
-        else:
-            r = self._residuals(altitude_m, tas_mps, x)
         if not (np.all(np.abs(r[:2]) < 1e-3) and abs(r[2]) < 1e-4):
             names = ("angle of attack", "elevator", "throttle")
             pinned = [n for n, v, lo, hi in zip(names, x, *bounds) if v <= lo + 1e-9 or v >= hi - 1e-9]
