@@ -1,0 +1,136 @@
+"""Trim across the envelope, static stability, linear modes, and the trim command line."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from aircraft.design import aero_data
+from jsbsim_env.modes import classify, jsbsim_linearisation, linear_modes, linearise
+from jsbsim_env.sim import FT_TO_M, Simulation, TrimError
+
+SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
+ALTITUDES_M = (500.0, 1000.0, 5000.0, 10000.0, 15000.0, 20000.0)
+EAS_MPS = (8.0, 10.0, 12.0)
+
+
+@pytest.fixture(scope="module")
+def envelope():
+    sim = Simulation()
+    points = []
+    for h in ALTITUDES_M:
+        for v in EAS_MPS:
+            trim = sim.trim(h, v)
+            points.append((trim, linear_modes(sim, trim)))
+    return points
+
+
+def test_trim_converges_inside_the_limits_everywhere(envelope):
+    for trim, _ in envelope:
+        where = f"{trim.altitude_m:g} m, {trim.airspeed_eas_mps:g} m/s"
+        assert trim.residual_accel_mps2 < 1e-3 and trim.residual_ang_accel_radps2 < 1e-4, where
+        assert abs(trim.elevator_deg) < 30.0 * 0.5, where  # half the travel is left for control
+        assert 0.0 < trim.throttle < 0.9, where  # margin at 20 km too
+        assert trim.rotor_rpm == pytest.approx(1800.0 * trim.throttle, rel=0.01), where
+        assert trim.pitch_deg == pytest.approx(trim.alpha_deg, abs=1e-6), where  # level flight
+        # Equivalent airspeed is what was asked for.
+        rho = trim.airspeed_eas_mps ** 2 / trim.airspeed_tas_mps ** 2 * 1.225
+        assert rho == pytest.approx(Simulation().density_kg_m3(trim.altitude_m), rel=1e-6)
+
+
+def test_short_period_and_dutch_roll_are_stable_everywhere(envelope):
+    for trim, modes in envelope:
+        where = f"{trim.altitude_m:g} m, {trim.airspeed_eas_mps:g} m/s"
+        for name in ("short_period", "dutch_roll", "roll", "phugoid"):
+            assert modes[name]["stable"], f"{name} unstable at {where}: {modes[name]}"
+        assert "damping_ratio" in modes["dutch_roll"] and modes["dutch_roll"]["damping_ratio"] > 0.1, where
+
+
+def test_static_margin_measured_in_jsbsim_is_the_designed_one():
+    sim = Simulation()
+    sim.trim(10000.0, 10.0)
+    lift_n, moment_nm = [], []
+    for alpha_deg in (-1.5, -0.5):
+        sim.set_initial_conditions(10000.0, 17.2, alpha_deg=alpha_deg)
+        lift_n.append(sim["forces/fwz-aero-lbs"] * 4.4482216)  # JSBSim's wind-axis z force is the lift
+        moment_nm.append(sim["moments/m-aero-lbsft"] * 1.3558179)
+    chord_m = sim["metrics/cbarw-ft"] * FT_TO_M
+    margin = -(moment_nm[1] - moment_nm[0]) / (lift_n[1] - lift_n[0]) / chord_m
+    designed = aero_data.load()["stability"]["static_margin"]
+    assert np.mean(lift_n) == pytest.approx(359.0 * 9.78, rel=0.05)  # about the weight: the sign is right
+    assert margin > 0.0
+    assert margin == pytest.approx(designed, abs=0.03)
+
+
+def test_trim_refuses_outside_the_envelope():
+    sim = Simulation()
+    for h, v, word in ((25000.0, 10.0, "altitude"), (10000.0, 20.0, "airspeed"), (-100.0, 10.0, "altitude"),
+                       (math.nan, 10.0, "finite")):
+        with pytest.raises(TrimError, match=word):
+            sim.trim(h, v)
+
+
+def test_mode_classification_on_a_textbook_matrix():
+    # Short period -2 +- 3j, phugoid -0.01 +- 0.3j; roll -5, spiral +0.02, Dutch roll -0.2 +- 1j.
+    def real_form(pairs, reals=()):
+        blocks = [np.array([[p.real, p.imag], [-p.imag, p.real]]) for p in pairs]
+        blocks += [np.array([[r]]) for r in reals]
+        n = sum(b.shape[0] for b in blocks)
+        a, i = np.zeros((n, n)), 0
+        for b in blocks:
+            k = b.shape[0]
+            a[i:i + k, i:i + k] = b
+            i += k
+        return a
+
+    modes = {m.name: m for m in classify(real_form([-2 + 3j, -0.01 + 0.3j]), real_form([-0.2 + 1j], [-5.0, 0.02]))}
+    assert modes["short_period"].eigenvalue == pytest.approx(-2 + 3j)
+    assert modes["phugoid"].eigenvalue == pytest.approx(-0.01 + 0.3j)
+    assert modes["roll"].eigenvalue == pytest.approx(-5.0)
+    assert modes["spiral"].eigenvalue == pytest.approx(0.02) and not modes["spiral"].stable
+    assert modes["dutch_roll"].as_dict()["damping_ratio"] == pytest.approx(0.2 / abs(-0.2 + 1j))
+    assert modes["spiral"].as_dict()["time_to_double_s"] == pytest.approx(math.log(2) / 0.02)
+
+
+def _run_trim_cli(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, str(SCRIPTS / "trim.py"), *args], check=False, capture_output=True, text=True,
+                          timeout=120)
+
+
+def test_trim_cli_prints_json_with_modes():
+    done = _run_trim_cli("--altitude-m", "10000", "--veas-mps", "10", "--json", "--modes")
+    assert done.returncode == 0, done.stderr
+    out = json.loads(done.stdout)
+    for key in ("alpha_deg", "pitch_deg", "elevator_deg", "throttle", "rotor_rpm"):
+        assert math.isfinite(out[key])
+    assert set(out["modes"]) == {"short_period", "phugoid", "roll", "spiral", "dutch_roll"}
+
+
+def test_trim_cli_fails_outside_the_envelope_with_a_reason():
+    done = _run_trim_cli("--altitude-m", "30000", "--veas-mps", "10", "--json")
+    assert done.returncode != 0
+    assert "outside the flight envelope" in done.stderr and done.stdout == ""
+
+
+@pytest.mark.slow
+def test_linearisation_agrees_with_jsbsim_fglinearization():
+    """Where JSBSim's own linearisation works (about 20 s at 10 km), the rigid-body modes agree."""
+    sim = Simulation()
+    trim = sim.trim(10000.0, 10.0)
+    ours = linearise(sim, trim)
+    theirs = jsbsim_linearisation(sim)
+    # Everything but the speed derivative of the axial force (JSBSim holds engine power, we hold
+    # rotor speed) and the yaw-rate/sideslip terms that differential thrust feeds.
+    mask_long = np.ones((4, 4), bool)
+    mask_long[0, 0] = False
+    np.testing.assert_allclose(ours[0][mask_long], theirs[0][mask_long], rtol=0.01, atol=2e-3)
+    np.testing.assert_allclose(ours[1], theirs[1], rtol=0.15, atol=2e-3)
+    for a, b in zip(classify(*ours), classify(*theirs)):
+        if a.name in ("short_period", "roll"):
+            assert a.eigenvalue == pytest.approx(b.eigenvalue, rel=0.01), a.name
