@@ -142,6 +142,13 @@ class Simulation:
         f["ic/p-rad_sec"], f["ic/q-rad_sec"], f["ic/r-rad_sec"] = rates_radps
         if not self.fdm.run_ic():
             raise TrimError("JSBSim rejected the initial conditions")
+        # JSBSim keeps any difference between its stored airspeed and ground velocity as a wind
+        # (loading an initial-condition file into a used instance leaves one); that wind would
+        # silently shift alpha and stay in the atmosphere.
+        alpha_err = f["aero/alpha-deg"] - alpha_deg
+        if abs(alpha_err) > 1e-6 or abs(f["aero/beta-deg"] - beta_deg) > 1e-6:
+            raise TrimError(f"JSBSim's initial conditions carry a wind (alpha off by {alpha_err:.3g} deg); "
+                            "set initial conditions on an instance that has not loaded an initial-condition file")
 
     def settle_actuators(self, max_time_s: float = 8.0, tol_deg: float = 1e-4, tol_rpm: float = 0.05) -> None:
         """Fly on until the servos, the rotor-speed reference and the rotors reach their commands.

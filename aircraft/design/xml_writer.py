@@ -11,6 +11,7 @@ Layout (JSBSim conventions; the folder is ``aircraft/solar_uav``)::
     Engines/motor.xml Engines/propeller.xml
     Systems/scaling.xml      run-time scale of every coefficient term and of the inertia
     Systems/rotor_speed.xml  speed-commanded electric drive (ESC) of the rotors
+    Systems/wing_leveler.xml roll hold for standalone runscripts (off unless ap/wing-leveler-active)
     reset*.xml               initial conditions
 """
 
@@ -123,6 +124,7 @@ def top_file(g: AircraftGeometry) -> str:
   <propulsion file="Propulsion.xml"/>
   <system file="scaling"/>
   <system file="rotor_speed"/>
+  <system file="wing_leveler"/>
   <flight_control file="FlightControl.xml"/>
   <aerodynamics file="Aerodynamics.xml"/>
 </fdm_config>
@@ -262,6 +264,39 @@ def scaling_system() -> str:
 """
 
 
+# Wing leveler gains: aileron command (normalised) per degree of bank error and per rad/s of roll
+# rate. A positive aileron rolls left here, so both gains are positive. With the roll rate of about
+# -0.25 rad/s per unit command the bank error closes with a time constant near 2.5 s, far faster
+# than the spiral divergence (doubling in 6-65 s across the envelope).
+WING_LEVELER_GAIN_PER_DEG = 0.03
+WING_LEVELER_DAMPING_S_PER_RAD = 0.5
+
+
+def wing_leveler_system() -> str:
+    return HEADER + f"""<!-- Roll-attitude hold for standalone JSBSim runs (the spiral mode is slowly divergent, so
+     a minutes-long runscript needs wings held level). Off by default; the environment and the
+     controllers never turn it on. Output ap/aileron-cmd-norm is added to the aileron command. -->
+<system name="wing-leveler">
+  <property value="0">ap/wing-leveler-active</property>
+  <property value="0">ap/roll-cmd-deg</property>
+  <channel name="wing leveler">
+    <fcs_function name="ap/aileron-cmd-norm">
+      <function>
+        <product>
+          <property> ap/wing-leveler-active </property>
+          <sum>
+            <product> <value> {fmt(WING_LEVELER_GAIN_PER_DEG)} </value> <difference> <property> attitude/phi-deg </property> <property> ap/roll-cmd-deg </property> </difference> </product>
+            <product> <value> {fmt(WING_LEVELER_DAMPING_S_PER_RAD)} </value> <property> velocities/p-rad_sec </property> </product>
+          </sum>
+        </product>
+      </function>
+      <clipto> <min> -0.5 </min> <max> 0.5 </max> </clipto>
+    </fcs_function>
+  </channel>
+</system>
+"""
+
+
 def rotor_speed_system(g: AircraftGeometry) -> str:
     rpm_to_rad = 2.0 * np.pi / 60.0
     ixx_slug_ft2 = g.rotor_inertia_kg_m2 * M_TO_FT**2 / 14.5939
@@ -332,9 +367,10 @@ def flight_control(g: AircraftGeometry) -> str:
         limit = getattr(g, limit_attr)
         trim = {"aileron": "fcs/roll-trim-cmd-norm", "elevator": "fcs/pitch-trim-cmd-norm",
                 "rudder": "fcs/yaw-trim-cmd-norm"}[surface]
+        autopilot = "\n      <input> ap/aileron-cmd-norm </input>" if surface == "aileron" else ""
         parts = [f"""    <summer name="fcs/{surface}-cmd-sum-norm">
       <input> {cmd} </input>
-      <input> {trim} </input>
+      <input> {trim} </input>{autopilot}
       <clipto> <min> -1 </min> <max> 1 </max> </clipto>
     </summer>
     <pure_gain name="fcs/{surface}-cmd-deg">
@@ -497,16 +533,25 @@ def aerodynamics(g: AircraftGeometry, data: dict) -> str:
 """
 
 
-def reset_file(altitude_m: float, tas_mps: float, alpha_deg: float = 0.0, psi_deg: float = 0.0) -> str:
-    return HEADER + f"""<initialize name="reset">
+def reset_file(altitude_m: float, tas_mps: float, alpha_deg: float = 0.0, psi_deg: float = 0.0,
+               name: str = "reset", header: str = HEADER) -> str:
+    """A JSBSim initial-condition file: wings level, pitch equal to alpha (level flight), motors running.
+
+    The speed is given as body velocity components after the attitude: JSBSim applies a file's
+    attitude before its speeds, and with ``vt`` and ``alpha`` it would keep a flight-path angle
+    left over from the previous state instead of flying level.
+    """
+    alpha_rad = np.radians(alpha_deg)
+    return header + f"""<initialize name="{name}">
   <latitude unit="DEG"> 40.0 </latitude>
   <longitude unit="DEG"> 116.0 </longitude>
   <altitude unit="M"> {fmt(altitude_m)} </altitude>
-  <vt unit="FT/SEC"> {fmt(tas_mps * M_TO_FT)} </vt>
-  <alpha unit="DEG"> {fmt(alpha_deg)} </alpha>
-  <theta unit="DEG"> {fmt(alpha_deg)} </theta>
   <phi unit="DEG"> 0 </phi>
+  <theta unit="DEG"> {fmt(alpha_deg)} </theta>
   <psi unit="DEG"> {fmt(psi_deg)} </psi>
+  <!-- true airspeed {fmt(tas_mps)} m/s at alpha {fmt(alpha_deg)} deg, no wind -->
+  <ubody unit="FT/SEC"> {fmt(tas_mps * M_TO_FT * np.cos(alpha_rad))} </ubody>
+  <wbody unit="FT/SEC"> {fmt(tas_mps * M_TO_FT * np.sin(alpha_rad))} </wbody>
   <running> -1 </running>
 </initialize>
 """
@@ -514,7 +559,7 @@ def reset_file(altitude_m: float, tas_mps: float, alpha_deg: float = 0.0, psi_de
 
 # Initial conditions shipped with the model: altitude (m) and true airspeed (m/s) for 10 m/s EAS
 # at 1 km, 10 km and 20 km.
-RESET_POINTS = ((1000.0, 10.5), (10000.0, 18.4), (20000.0, 37.1))
+RESET_POINTS = ((1000.0, 10.5), (10000.0, 17.2), (20000.0, 37.1))
 
 
 def aircraft_files(g: AircraftGeometry, data: dict) -> dict[str, str]:
@@ -529,6 +574,7 @@ def aircraft_files(g: AircraftGeometry, data: dict) -> dict[str, str]:
         "Engines/propeller.xml": propeller(g, data),
         "Systems/scaling.xml": scaling_system(),
         "Systems/rotor_speed.xml": rotor_speed_system(g),
+        "Systems/wing_leveler.xml": wing_leveler_system(),
         "FlightControl.xml": flight_control(g),
         "Aerodynamics.xml": aerodynamics(g, data),
         **{f"reset{i:02d}.xml": reset_file(h, tas, data["stability"]["cruise_alpha_deg"])

@@ -1,0 +1,71 @@
+"""The standalone JSBSim runscripts: generated from the trim, runnable with the ``jsbsim`` command."""
+
+from __future__ import annotations
+
+import csv
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import aircraft
+from jsbsim_env.runscripts import RUNS, generated_files
+from jsbsim_env.sim import FT_TO_M, Simulation
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_committed_runscripts_are_what_the_generator_writes():
+    for rel, text in generated_files().items():
+        if rel.startswith("aircraft/"):
+            path = aircraft.jsbsim_root() / rel  # the installed copy of the initial conditions
+        else:
+            path = REPO_ROOT / rel
+        assert path.read_text() == text, f"{rel} differs: run python scripts/make_runscripts.py"
+
+
+def _read_csv(path: Path) -> dict[str, np.ndarray]:
+    with path.open() as fh:
+        rows = list(csv.reader(fh))
+    # JSBSim names the columns by their full property path; keep the part after /fdm/jsbsim/.
+    names = [h.strip().removeprefix("/fdm/jsbsim/") for h in rows[0]]
+    data = np.array([[float(v) for v in row] for row in rows[1:]])
+    return {n: data[:, i] for i, n in enumerate(names)}
+
+
+@pytest.mark.parametrize("run", RUNS, ids=lambda r: r.name)
+def test_runscript_flies_the_doublets_and_returns_to_trim(run, tmp_path):
+    jsbsim_cli = Path(sys.executable).with_name("jsbsim")
+    done = subprocess.run([str(jsbsim_cli), "--root", str(aircraft.jsbsim_root()), "--outputpath", str(tmp_path),
+                           str(REPO_ROOT / "scripts" / f"{run.name}.xml")],
+                          check=False, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    out = _read_csv(tmp_path / f"{run.name}.csv")
+    t = out["Time"]
+    assert t[-1] == pytest.approx(run.end_s)
+    trim = Simulation().trim(run.altitude_m, run.airspeed_eas_mps)
+
+    def at(name, time_s):
+        return out[name][np.searchsorted(t, time_s)]
+
+    # The doublets reached the surfaces.
+    half = run.doublet_half_period_s
+    elevator_kick = at("fcs/elevator-pos-deg", run.elevator_start_s + 0.5 * half) - trim.elevator_deg
+    assert elevator_kick == pytest.approx(run.elevator_doublet_deg, abs=0.05)
+    aileron = at("fcs/aileron-pos-deg", run.aileron_start_s + 1.5 * half)
+    assert aileron == pytest.approx(-run.aileron_doublet_deg, abs=0.05)
+    # ... and moved the aircraft.
+    window = (t > run.elevator_start_s) & (t < run.elevator_start_s + 10)
+    assert np.ptp(out["attitude/theta-deg"][window]) > 1.0
+    window = (t > run.aileron_start_s) & (t < run.aileron_start_s + 10)
+    assert np.ptp(out["attitude/phi-deg"][window]) > 2.0
+    # The last 20 s are back at the trimmed condition.
+    last = t > run.end_s - 20
+    eas_mps = out["velocities/ve-fps"][last] * FT_TO_M
+    assert np.all(np.abs(eas_mps - run.airspeed_eas_mps) < 0.1)
+    assert np.all(np.abs(out["attitude/theta-deg"][last] - trim.pitch_deg) < 0.3)
+    assert np.all(np.abs(out["attitude/phi-deg"][last]) < 0.5)
+    assert np.all(np.abs(out["velocities/h-dot-fps"][last] * FT_TO_M) < 0.1)
+    assert np.all(np.abs(out["position/h-sl-meters"][last] - run.altitude_m) < 20.0)
