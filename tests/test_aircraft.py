@@ -186,3 +186,25 @@ def test_malformed_aircraft_file_gives_clear_error(tmp_path):
     aero.write_text(aero.read_text()[: len(aero.read_text()) // 2])  # truncated mid-element
     with pytest.raises(ModelError, match="solar_uav"):
         Simulation(root=root)
+
+
+def _assert_nested_close(a, b, path="data"):
+    if isinstance(a, dict):
+        assert set(a) == set(b), f"{path}: keys differ"
+        for k in a:
+            _assert_nested_close(a[k], b[k], f"{path}.{k}")
+    elif isinstance(a, (list, tuple)) and a and isinstance(a[0], (dict, list, tuple, str)):
+        assert len(a) == len(b), f"{path}: lengths differ"
+        for i, (x, y) in enumerate(zip(a, b)):
+            _assert_nested_close(x, y, f"{path}[{i}]")
+    elif isinstance(a, str):
+        assert a == b, path
+    else:
+        np.testing.assert_allclose(np.asarray(a, float), np.asarray(b, float), rtol=1e-6, atol=1e-9, err_msg=path)
+
+
+@pytest.mark.slow
+def test_aero_data_regenerates_from_the_geometry():
+    """The committed aero_data.json is what the analyses compute from the geometry (about 20 s)."""
+    pytest.importorskip("aerosandbox")
+    _assert_nested_close(aero_data.compute_aero_data(AircraftGeometry()), aero_data.load())

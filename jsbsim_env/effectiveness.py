@@ -1,0 +1,72 @@
+"""Actuator effectiveness against altitude at a fixed equivalent airspeed (SPEC Fig. 10).
+
+At each altitude the aircraft is trimmed; then, at the trimmed state,
+
+* the control moment per degree of each surface (aileron -> roll, elevator -> pitch,
+  rudder -> yaw) is the central difference of JSBSim's aerodynamic moment over +-1 deg;
+* the rate authority per degree is that moment over the axis inertia, divided by the axis's
+  rate damping (Lp, Mq, Nr from ``jsbsim_env.modes.linearise``): the steady rate one degree holds
+  against the damping, which sets how fast the attitude follows;
+* the thrust available is the total thrust at full throttle at the trimmed airspeed.
+
+At a fixed EAS the dynamic pressure is fixed, so the moments change only through Reynolds and
+Mach number; the damping falls as 1/TAS, so the rate authority grows with altitude while the
+power-limited thrust falls.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from jsbsim_env.modes import linearise
+from jsbsim_env.sim import LBF_TO_N, Simulation, TrimResult
+
+FT_LBF_TO_N_M = 1.3558179483314
+SURFACE_AXES = {"aileron": ("l", 0), "elevator": ("m", 1), "rudder": ("n", 2)}
+DEFLECTION_DEG = 1.0
+
+
+def _moments_at(sim: Simulation, trim: TrimResult, surfaces_deg: dict[str, float], throttle: float) -> np.ndarray:
+    """Aerodynamic moments (N m, body roll/pitch/yaw) and total thrust (N) with the given controls."""
+    sim.set_initial_conditions(trim.altitude_m, trim.airspeed_tas_mps, alpha_deg=trim.alpha_deg)
+    sim.set_controls(surfaces_deg["aileron"], surfaces_deg["elevator"], surfaces_deg["rudder"], throttle)
+    sim.settle_actuators()
+    sim.set_initial_conditions(trim.altitude_m, trim.airspeed_tas_mps, alpha_deg=trim.alpha_deg)
+    f = sim.fdm
+    moments = [f[f"moments/{a}-aero-lbsft"] * FT_LBF_TO_N_M for a in "lmn"]
+    thrust = sum(f[f"propulsion/engine[{i}]/thrust-lbs"] for i in range(sim.engine_count)) * LBF_TO_N
+    return np.array([*moments, thrust])
+
+
+def effectiveness_at(sim: Simulation, altitude_m: float, airspeed_eas_mps: float = 10.0) -> dict[str, float]:
+    """Effectiveness figures at one altitude (SI units; see the module docstring)."""
+    trim = sim.trim(altitude_m, airspeed_eas_mps)
+    a_long, a_lat = linearise(sim, trim)
+    damping = {"aileron": -a_lat[2, 2], "elevator": -a_long[3, 3], "rudder": -a_lat[3, 3]}  # 1/s
+    inertia = np.diag(np.asarray(sim.fdm.get_mass_balance().get_J())) * FT_LBF_TO_N_M  # kg m^2
+    trimmed = {"aileron": 0.0, "elevator": trim.elevator_deg, "rudder": 0.0}
+    out = {"altitude_m": altitude_m, "airspeed_tas_mps": trim.airspeed_tas_mps}
+    for surface, (axis, k) in SURFACE_AXES.items():
+        plus = _moments_at(sim, trim, {**trimmed, surface: trimmed[surface] + DEFLECTION_DEG}, trim.throttle)
+        minus = _moments_at(sim, trim, {**trimmed, surface: trimmed[surface] - DEFLECTION_DEG}, trim.throttle)
+        moment = (plus[k] - minus[k]) / (2 * DEFLECTION_DEG)
+        out[f"{surface}_moment_nm_per_deg"] = float(moment)
+        out[f"{surface}_rate_degps_per_deg"] = float(math.degrees(moment / inertia[k] / damping[surface]))
+    out["thrust_full_throttle_n"] = float(_moments_at(sim, trim, trimmed, 1.0)[3])
+    out["thrust_trim_n"] = trim.thrust_n
+    sim.trim(altitude_m, airspeed_eas_mps)
+    return out
+
+
+def effectiveness(altitudes_m, airspeed_eas_mps: float = 10.0) -> list[dict[str, float]]:
+    """``effectiveness_at`` for every altitude, each figure also normalised to the first altitude."""
+    sim = Simulation()
+    # Sea level is inside the envelope; move the terrain below so the landing gear stays clear.
+    sim["ic/terrain-elevation-ft"] = -1000.0
+    rows = [effectiveness_at(sim, h, airspeed_eas_mps) for h in altitudes_m]
+    for row in rows:
+        for key in [k for k in row if k.endswith(("_per_deg", "_n"))]:
+            row[f"{key}_normalised"] = row[key] / rows[0][key]
+    return rows
