@@ -11,6 +11,7 @@ Layout (JSBSim conventions; the folder is ``aircraft/solar_uav``)::
     Engines/motor.xml Engines/propeller.xml
     Systems/scaling.xml      run-time scale of every coefficient term and of the inertia
     Systems/rotor_speed.xml  speed-commanded electric drive (ESC) of the rotors
+    Systems/gust_rates.xml   rotational gust inputs (Dryden p, q, r) for the rate terms
     Systems/wing_leveler.xml roll hold for standalone runscripts (off unless ap/wing-leveler-active)
     reset*.xml               initial conditions
 """
@@ -124,6 +125,7 @@ def top_file(g: AircraftGeometry) -> str:
   <propulsion file="Propulsion.xml"/>
   <system file="scaling"/>
   <system file="rotor_speed"/>
+  <system file="gust_rates"/>
   <system file="wing_leveler"/>
   <flight_control file="FlightControl.xml"/>
   <aerodynamics file="Aerodynamics.xml"/>
@@ -270,6 +272,19 @@ def scaling_system() -> str:
 # than the spiral divergence (doubling in 6-65 s across the envelope).
 WING_LEVELER_GAIN_PER_DEG = 0.03
 WING_LEVELER_DAMPING_S_PER_RAD = 0.5
+
+
+def gust_rates_system() -> str:
+    return HEADER + """<!-- Rotational gusts (turbulence angular rates, rad/s, body axes) for the aerodynamic rate
+     terms: the rates the air sees are the body rates minus these, as in JSBSim's own turbulence
+     (whose p/q/r-turb properties cannot be written). Zero unless a turbulence model writes them;
+     the translational gusts go to JSBSim's atmosphere/gust-*-fps. -->
+<system name="gust-rates">
+  <property value="0">atmosphere/gust-p-rad_sec</property>
+  <property value="0">atmosphere/gust-q-rad_sec</property>
+  <property value="0">atmosphere/gust-r-rad_sec</property>
+</system>
+"""
 
 
 def wing_leveler_system() -> str:
@@ -491,13 +506,13 @@ def aerodynamics(g: AircraftGeometry, data: dict) -> str:
     <product> <value> 0.5 </value> <sin> <product> <value> 2 </value> <property> aero/beta-rad </property> </product> </sin> </product>
   </function>
   <function name="aero/function/p-hat">
-    <product> <property> velocities/p-aero-rad_sec </property> <property> aero/bi2vel </property> </product>
+    <product> <difference> <property> velocities/p-aero-rad_sec </property> <property> atmosphere/gust-p-rad_sec </property> </difference> <property> aero/bi2vel </property> </product>
   </function>
   <function name="aero/function/q-hat">
-    <product> <property> velocities/q-aero-rad_sec </property> <property> aero/ci2vel </property> </product>
+    <product> <difference> <property> velocities/q-aero-rad_sec </property> <property> atmosphere/gust-q-rad_sec </property> </difference> <property> aero/ci2vel </property> </product>
   </function>
   <function name="aero/function/r-hat">
-    <product> <property> velocities/r-aero-rad_sec </property> <property> aero/bi2vel </property> </product>
+    <product> <difference> <property> velocities/r-aero-rad_sec </property> <property> atmosphere/gust-r-rad_sec </property> </difference> <property> aero/bi2vel </property> </product>
   </function>
   <function name="aero/function/CL-static">
     <description>Lift coefficient of the clean aircraft, for the induced adverse yaw of the ailerons.</description>
@@ -574,6 +589,7 @@ def aircraft_files(g: AircraftGeometry, data: dict) -> dict[str, str]:
         "Engines/propeller.xml": propeller(g, data),
         "Systems/scaling.xml": scaling_system(),
         "Systems/rotor_speed.xml": rotor_speed_system(g),
+        "Systems/gust_rates.xml": gust_rates_system(),
         "Systems/wing_leveler.xml": wing_leveler_system(),
         "FlightControl.xml": flight_control(g),
         "Aerodynamics.xml": aerodynamics(g, data),
