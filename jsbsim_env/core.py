@@ -1,0 +1,307 @@
+"""The flight core: one aircraft in JSBSim with every disturbance, flown one control interval at a time.
+
+Every controller (the SAC policy, the PID baseline, the TECS/L1 missions) flies through this class,
+so all see the same delay, noise, turbulence, parameter sets and backlash. It knows nothing about
+goals or rewards (``jsbsim_env.task``); it takes actuator commands and returns measurements.
+
+Timing, per episode (SPEC section 3):
+
+* the control interval is drawn from ``control_interval_s`` and then fixed; control instant k is
+  at k * interval exactly, and the simulation (fixed rate ``sim_rate_hz``, because JSBSim's
+  actuator filters are discretised for the rate they were loaded with) runs to the step nearest it;
+* a command given at control instant k reaches the actuators ``delay`` later, at the first
+  simulation step at or after that time, not at a whole control step;
+* the measurement returned at instant k is the state at k plus Ornstein-Uhlenbeck noise.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from jsbsim_env import disturbances as dist
+from jsbsim_env.sim import (
+    CONTROL_INPUTS,
+    EAS_RANGE_MPS,
+    FT_TO_M,
+    RHO0_KG_M3,
+    RHO0_SLUG_FT3,
+    SURFACE_LIMITS_DEG,
+    Simulation,
+)
+from jsbsim_env.trim_table import TrimTable
+
+# The measured state (SPEC Eq. 18) in SI units: angles in rad, rates in rad/s, the three
+# surfaces as positions in rad, the throttle as rotor-speed reference over its maximum (0..1).
+STATE_NAMES = ("altitude_m", "roll_rad", "pitch_rad", "p_radps", "q_radps", "r_radps", "airspeed_eas_mps",
+               "alpha_rad", "beta_rad", "aileron_rad", "elevator_rad", "rudder_rad", "throttle")
+N_STATE = len(STATE_NAMES)
+# SPEC Table 3: OU noise sigma per state element (same order).
+NOISE_SIGMA = np.array([0.0, 1e-3, 1e-3, 1e-3, 1e-3, 1e-3, 0.01, 1e-3, 1e-3, 0.0, 0.0, 0.0, 0.0])
+# Command order and limits (SPEC Table 2): aileron, elevator, rudder in degrees, throttle 0..1.
+COMMAND_LOW = np.array([-SURFACE_LIMITS_DEG["aileron"], -SURFACE_LIMITS_DEG["elevator"], -SURFACE_LIMITS_DEG["rudder"],
+                        0.0])
+COMMAND_HIGH = -COMMAND_LOW + np.array([0.0, 0.0, 0.0, 1.0])
+MAX_ROTOR_RPM = 1800.0
+
+
+@dataclass(frozen=True)
+class Envelope:
+    """Where an episode ends early (a documented flight envelope; SPEC section 1 and beyond)."""
+
+    max_abs_roll_deg: float = 60.0
+    max_abs_pitch_deg: float = 45.0
+    alpha_range_deg: tuple[float, float] = (-20.0, 25.0)
+    eas_range_mps: tuple[float, float] = (4.0, 25.0)
+    altitude_range_m: tuple[float, float] = (50.0, 22000.0)  # below 50 m counts as ground strike
+
+
+@dataclass(frozen=True)
+class CoreConfig:
+    """Disturbances and episode start. Defaults are SPEC's training setting (all disturbances on)."""
+
+    sim_rate_hz: float = 120.0
+    control_interval_s: tuple[float, float] = (0.040, 0.060)
+    delay_s: tuple[float, float] = (0.080, 0.120)
+    sensor_noise: bool = True
+    noise_reversion_per_s: float = 0.0  # "mean-reversion rate 0 (as printed)"
+    parameters: str = dist.RANDOMISED  # Table 4 draw, or a fixed set: "nominal", "positive", "negative"
+    turbulence: bool = True
+    turbulence_sigma_mps: float = 0.5
+    backlash_deg: float = 0.0
+    altitude_range_m: tuple[float, float] = (500.0, 20000.0)
+    eas_range_mps: tuple[float, float] = EAS_RANGE_MPS
+    # Start perturbation about the trim: uniform within +- these.
+    perturb_attitude_deg: float = 5.0
+    perturb_rate_degps: float = 2.0
+    perturb_eas_mps: float = 1.0
+    max_steps: int = 500  # turbulence is generated for this many control intervals
+    envelope: Envelope = field(default_factory=Envelope)
+
+    @classmethod
+    def ideal(cls, **overrides) -> CoreConfig:
+        """No disturbance at all: 50 ms interval, no delay, no noise, nominal aircraft, calm air."""
+        base = cls(control_interval_s=(0.05, 0.05), delay_s=(0.0, 0.0), sensor_noise=False, parameters="nominal",
+                   turbulence=False, perturb_attitude_deg=0.0, perturb_rate_degps=0.0, perturb_eas_mps=0.0)
+        return replace(base, **overrides)
+
+
+@dataclass
+class EpisodeSetup:
+    """What was drawn for the episode."""
+
+    seed: int | None
+    altitude_m: float
+    airspeed_eas_mps: float
+    control_interval_s: float
+    delay_s: float
+    scales: dict[str, float]
+    trim_command: np.ndarray  # aileron, elevator, rudder (deg), throttle
+
+
+class CommandError(ValueError):
+    """A command that is not finite or not inside the actuator ranges."""
+
+
+class FlightCore:
+    """One aircraft with delay, noise, turbulence, parameter sets and backlash.
+
+    Args:
+        config: disturbances and episode start.
+        root: JSBSim root; the packaged aircraft by default.
+    """
+
+    def __init__(self, config: CoreConfig | None = None, root: Path | str | None = None):
+        self.config = config or CoreConfig()
+        self.sim = Simulation(root, sim_rate_hz=self.config.sim_rate_hz)
+        self.dt_s = self.sim.dt_s
+        self.span_m = self.sim["metrics/bw-ft"] * FT_TO_M
+        self.trim_table = TrimTable.shared()
+        self.noise = dist.OrnsteinUhlenbeckNoise(NOISE_SIGMA, self.config.noise_reversion_per_s)
+        f = self.sim.fdm
+        pm = f.get_property_manager()
+
+        def getter(name):
+            return pm.get_node(name, False).get_double_value
+
+        def setter(name):
+            return pm.get_node(name, False).set_double_value
+
+        self._run = f.run
+        self._get_state = [getter(n) for n in (
+            "position/h-sl-meters", "attitude/phi-rad", "attitude/theta-rad", "velocities/p-rad_sec",
+            "velocities/q-rad_sec", "velocities/r-rad_sec", "velocities/vt-fps", "aero/alpha-rad", "aero/beta-rad",
+            "fcs/aileron-pos-deg", "fcs/elevator-pos-deg", "fcs/rudder-pos-deg", "fcs/rotor-speed-ref-rpm",
+            "atmosphere/rho-slugs_ft3", "attitude/psi-rad", "position/h-agl-ft")]
+        self._set_command = [setter(n) for n in CONTROL_INPUTS]
+        self._set_gust = [setter(f"atmosphere/gust-{a}-fps") for a in ("north", "east", "down")]
+        self._set_gust_rate = [setter(f"atmosphere/gust-{a}-rad_sec") for a in "pqr"]
+        self._command_scale = np.array([1.0 / SURFACE_LIMITS_DEG["aileron"], 1.0 / SURFACE_LIMITS_DEG["elevator"],
+                                        1.0 / SURFACE_LIMITS_DEG["rudder"], 1.0])
+        self.setup: EpisodeSetup | None = None
+        self.rng = np.random.default_rng()
+
+    # ------------------------------------------------------------------ episode start
+    def reset(self, seed: int | None = None, altitude_m: float | None = None,
+              airspeed_eas_mps: float | None = None, parameters: str | None = None) -> np.ndarray:
+        """Start an episode: draw its setting, trim, perturb. Returns the first measurement.
+
+        ``altitude_m``, ``airspeed_eas_mps`` and ``parameters`` override the draws (evaluation).
+        """
+        cfg = self.config
+        self.rng = rng = np.random.default_rng(seed)
+        # Draw everything up front, in a fixed order, so that overrides do not shift later draws.
+        alt = float(rng.uniform(*cfg.altitude_range_m))
+        eas = float(rng.uniform(*cfg.eas_range_mps))
+        interval = float(rng.uniform(*cfg.control_interval_s))
+        delay = float(rng.uniform(*cfg.delay_s))
+        perturb = rng.uniform(-1.0, 1.0, size=7)
+        scales = dist.draw_scales(parameters or cfg.parameters, rng)
+        turbulence_seed = int(rng.integers(2**31 - 1))
+        jsbsim_seed = int(rng.integers(2**31 - 1))
+        alt = alt if altitude_m is None else float(altitude_m)
+        eas = eas if airspeed_eas_mps is None else float(airspeed_eas_mps)
+
+        sim, f = self.sim, self.sim.fdm
+        f["simulation/randomseed"] = jsbsim_seed
+        for term in self._scale_terms():
+            f[f"aero/scale/{term}"] = scales.get(term, 1.0)
+        f["fcs/backlash-width-deg"] = cfg.backlash_deg
+        for s in self._set_gust + self._set_gust_rate:
+            s(0.0)
+        # The nominal aircraft's trim, interpolated; with scaled coefficients the start is then
+        # slightly off trim, which the perturbation below dwarfs.
+        trim = self.trim_table.lookup(alt, eas)
+        rho_ratio = sim.density_kg_m3(alt) / RHO0_KG_M3
+        tas = eas / math.sqrt(rho_ratio)
+        sim.set_initial_conditions(alt, tas, alpha_deg=trim.alpha_deg)
+        # Restart JSBSim's models (actuators, filters, rotors) from rest so that the episode does
+        # not depend on the previous one, then bring actuators and rotors to the trim commands.
+        f.reset_to_initial_conditions(0)
+        trim_command = np.array([0.0, trim.elevator_deg, 0.0, trim.throttle])
+        self._write_command(trim_command)
+        sim.settle_actuators()
+        att = np.radians(cfg.perturb_attitude_deg) * perturb[:2]
+        rates = np.radians(cfg.perturb_rate_degps) * perturb[2:5]
+        eas0 = eas + cfg.perturb_eas_mps * perturb[5]
+        tas0 = eas0 / math.sqrt(rho_ratio)
+        sim.set_initial_conditions(alt, tas0, alpha_deg=trim.alpha_deg, pitch_deg=trim.alpha_deg + math.degrees(att[1]),
+                                   roll_deg=math.degrees(att[0]), heading_deg=float(perturb[6] * 180.0),
+                                   rates_radps=tuple(rates))
+        self.setup = EpisodeSetup(seed, alt, eas, interval, delay, scales, trim_command)
+        self.turbulence = None
+        if cfg.turbulence:
+            self.turbulence = dist.dryden_series(cfg.max_steps + 1, alt, tas, self.span_m, cfg.turbulence_sigma_mps,
+                                                 interval, np.random.default_rng(turbulence_seed))
+        self.noise.reset()
+        self.step_index = 0
+        self.sim_steps = 0
+        self._pending: deque[tuple[int, np.ndarray]] = deque()
+        self.applied_command = trim_command.copy()
+        self._apply_gusts()
+        return self._measure()
+
+    @staticmethod
+    def _scale_terms():
+        from aircraft.design.xml_writer import INERTIA_SCALE, TERMS
+
+        return (*TERMS, INERTIA_SCALE)
+
+    # ------------------------------------------------------------------ stepping
+    def check_command(self, command: np.ndarray) -> np.ndarray:
+        """Validate a physical command (aileron, elevator, rudder in deg, throttle 0..1)."""
+        command = np.asarray(command, dtype=float)
+        if command.shape != (4,):
+            raise CommandError(f"command must have 4 elements (aileron, elevator, rudder, throttle), got {command.shape}")
+        if not np.all(np.isfinite(command)):
+            raise CommandError(f"command is not finite: {command}")
+        if np.any(command < COMMAND_LOW - 1e-9) or np.any(command > COMMAND_HIGH + 1e-9):
+            raise CommandError(f"command {command} is outside [{COMMAND_LOW}, {COMMAND_HIGH}]")
+        return command
+
+    def step(self, command: np.ndarray) -> np.ndarray:
+        """Give ``command`` at the current control instant and fly to the next one.
+
+        Returns the measurement at the next control instant.
+        """
+        command = self.check_command(command)
+        setup = self.setup
+        k = self.step_index
+        # Simulation step at which the command reaches the actuators, and the one that ends the interval.
+        apply_at = math.ceil((k * setup.control_interval_s + setup.delay_s) / self.dt_s - 1e-9)
+        self._pending.append((apply_at, command))
+        end = round((k + 1) * setup.control_interval_s / self.dt_s)
+        pending, run = self._pending, self._run
+        n = self.sim_steps
+        while n < end:
+            while pending and pending[0][0] <= n:
+                self._write_command(pending.popleft()[1])
+            run()
+            n += 1
+        self.sim_steps = n
+        self.step_index = k + 1
+        self._apply_gusts()
+        return self._measure()
+
+    def _write_command(self, command: np.ndarray) -> None:
+        self.applied_command = command
+        normalised = command * self._command_scale
+        for s, v in zip(self._set_command, normalised):
+            s(float(v))
+
+    def _apply_gusts(self) -> None:
+        """Hold the turbulence sample of this control interval (zero-order hold)."""
+        if self.turbulence is None:
+            return
+        k = min(self.step_index, len(self.turbulence.wind_mps) - 1)
+        g = self._get_state
+        ned = dist.body_to_ned(g[1](), g[2](), g[14](), self.turbulence.wind_mps[k])
+        for s, v in zip(self._set_gust, ned):
+            s(v / FT_TO_M)
+        for s, v in zip(self._set_gust_rate, self.turbulence.rate_radps[k]):
+            s(float(v))
+
+    # ------------------------------------------------------------------ measurements
+    def true_state(self) -> np.ndarray:
+        """The state of SPEC Eq. 18 without noise (see ``STATE_NAMES``)."""
+        g = self._get_state
+        eas = math.sqrt(g[13]() / RHO0_SLUG_FT3) * g[6]() * FT_TO_M
+        return np.array([g[0](), g[1](), g[2](), g[3](), g[4](), g[5](), eas, g[7](), g[8](), math.radians(g[9]()),
+                         math.radians(g[10]()), math.radians(g[11]()), g[12]() / MAX_ROTOR_RPM])
+
+    def _measure(self) -> np.ndarray:
+        state = self.true_state()
+        self.last_true_state = state
+        if self.config.sensor_noise:
+            return state + self.noise.step(self.setup.control_interval_s, self.rng)
+        return state
+
+    @property
+    def time_s(self) -> float:
+        return self.sim_steps * self.dt_s
+
+    def envelope_violation(self) -> str | None:
+        """Why the aircraft has left the flight envelope, or None."""
+        s = self.last_true_state
+        env = self.config.envelope
+        if not np.all(np.isfinite(s)):
+            return "non-finite state"
+        if self._get_state[15]() * FT_TO_M < env.altitude_range_m[0]:
+            return "ground strike"
+        if s[0] > env.altitude_range_m[1]:
+            return f"altitude above {env.altitude_range_m[1]:g} m"
+        if abs(math.degrees(s[1])) > env.max_abs_roll_deg:
+            return f"roll beyond {env.max_abs_roll_deg:g} deg"
+        if abs(math.degrees(s[2])) > env.max_abs_pitch_deg:
+            return f"pitch beyond {env.max_abs_pitch_deg:g} deg"
+        lo, hi = env.alpha_range_deg
+        if not lo <= math.degrees(s[7]) <= hi:
+            return f"angle of attack outside {lo:g}..{hi:g} deg"
+        lo, hi = env.eas_range_mps
+        if not lo <= s[6] <= hi:
+            return f"equivalent airspeed outside {lo:g}..{hi:g} m/s"
+        return None

@@ -1,0 +1,117 @@
+"""TorchRL environment: N aircraft in one process, batched along the first dimension.
+
+``SolarUAVAttitudeEnv`` is the plain environment (observation of SPEC Eq. 18-19, one step per
+control interval); ``make_env`` adds the training transforms: the 8-step observation window of
+SPEC section 3, a step counter and the episode reward.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+from tensordict import TensorDict, TensorDictBase
+from torchrl.data import Bounded, Categorical, Composite, Unbounded
+from torchrl.envs import Compose, EnvBase, RewardSum, StepCounter, TransformedEnv
+from torchrl.envs.transforms import CatFrames, UnsqueezeTransform
+
+from jsbsim_env.task import ACTION_SIZE, OBS_SIZE, AttitudeTask, TaskConfig
+
+REWARD_TERMS = ("penalty_roll", "penalty_pitch", "penalty_airspeed", "penalty_beta")
+OBSERVATION_WINDOW = 8  # SPEC section 3: the policy sees the last 8 observations
+
+
+def episode_seed(base_seed: int, env_index: int, episode: int) -> int:
+    """The seed of one episode of one of the batched aircraft (independent streams)."""
+    return int(np.random.SeedSequence([base_seed, env_index, episode]).generate_state(1, np.uint64)[0])
+
+
+class SolarUAVAttitudeEnv(EnvBase):
+    """Attitude tracking for the solar UAV, ``num_envs`` aircraft stepped together.
+
+    Keys: ``observation`` (num_envs, 16) float32, ``action`` (num_envs, 4) in [-1, 1],
+    ``reward`` (num_envs, 1), ``done``/``terminated``/``truncated`` (num_envs, 1), and each
+    reward term (num_envs, 1), which sum with the reward as ``1 - sum(penalties)``.
+    """
+
+    batch_locked = True
+
+    def __init__(self, num_envs: int = 8, config: TaskConfig | None = None, seed: int = 0, device="cpu"):
+        super().__init__(device=device, batch_size=torch.Size([num_envs]))
+        self.num_envs = num_envs
+        self.tasks = [AttitudeTask(config) for _ in range(num_envs)]
+        self._episodes = np.zeros(num_envs, dtype=np.int64)
+        self._base_seed = int(seed)
+        n = (num_envs,)
+        self.observation_spec = Composite(
+            observation=Unbounded(shape=(*n, OBS_SIZE), dtype=torch.float32),
+            **{k: Unbounded(shape=(*n, 1), dtype=torch.float32) for k in REWARD_TERMS},
+            shape=n,
+        )
+        self.action_spec = Bounded(low=-1.0, high=1.0, shape=(*n, ACTION_SIZE), dtype=torch.float32)
+        self.reward_spec = Unbounded(shape=(*n, 1), dtype=torch.float32)
+        self.done_spec = Composite(
+            done=Categorical(2, shape=(*n, 1), dtype=torch.bool),
+            terminated=Categorical(2, shape=(*n, 1), dtype=torch.bool),
+            truncated=Categorical(2, shape=(*n, 1), dtype=torch.bool),
+            shape=n,
+        )
+        self._obs = np.zeros((num_envs, OBS_SIZE), dtype=np.float32)
+        self._terms = np.zeros((num_envs, len(REWARD_TERMS)), dtype=np.float32)
+        self.last_info: list[dict] = [{} for _ in range(num_envs)]
+
+    def _set_seed(self, seed: int | None) -> None:
+        self._base_seed = int(seed) if seed is not None else int(np.random.SeedSequence().entropy % 2**31)
+        self._episodes[:] = 0
+
+    def _reset(self, tensordict: TensorDictBase | None = None, **kwargs) -> TensorDictBase:
+        mask = None
+        if tensordict is not None and "_reset" in tensordict.keys():  # noqa: SIM118 (TensorDict membership needs keys())
+            mask = tensordict["_reset"].reshape(self.num_envs).cpu().numpy()
+        for i, task in enumerate(self.tasks):
+            if mask is not None and not mask[i]:
+                continue
+            obs, _ = task.reset(episode_seed(self._base_seed, i, int(self._episodes[i])))
+            self._episodes[i] += 1
+            self._obs[i] = obs
+            self._terms[i] = 0.0
+        out = self._output(np.zeros(self.num_envs), np.zeros(self.num_envs, bool), np.zeros(self.num_envs, bool))
+        del out["reward"]
+        return out
+
+    def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
+        actions = tensordict["action"].detach().cpu().numpy().astype(np.float64)
+        rewards = np.empty(self.num_envs)
+        terminated = np.empty(self.num_envs, bool)
+        truncated = np.empty(self.num_envs, bool)
+        for i, task in enumerate(self.tasks):
+            obs, rewards[i], terminated[i], truncated[i], info = task.step(actions[i])
+            self._obs[i] = obs
+            self._terms[i] = [info[k] for k in REWARD_TERMS]
+            self.last_info[i] = info
+        return self._output(rewards, terminated, truncated)
+
+    def _output(self, rewards, terminated, truncated) -> TensorDictBase:
+        n = self.num_envs
+        terminated_t = torch.as_tensor(terminated).reshape(n, 1)
+        truncated_t = torch.as_tensor(truncated).reshape(n, 1)
+        terms = torch.from_numpy(self._terms.copy())
+        return TensorDict(
+            {"observation": torch.from_numpy(self._obs.copy()),
+             **{k: terms[:, j:j + 1] for j, k in enumerate(REWARD_TERMS)},
+             "reward": torch.as_tensor(rewards, dtype=torch.float32).reshape(n, 1),
+             "terminated": terminated_t, "truncated": truncated_t, "done": terminated_t | truncated_t},
+            batch_size=self.batch_size, device=self.device,
+        )
+
+
+def make_env(num_envs: int = 8, config: TaskConfig | None = None, seed: int = 0, device="cpu",
+             window: int = OBSERVATION_WINDOW) -> TransformedEnv:
+    """The training environment: the 8-step observation window (``observation`` becomes
+    (num_envs, window, 16), oldest first), a step counter and the episode reward sum."""
+    env = SolarUAVAttitudeEnv(num_envs, config, seed, device)
+    return TransformedEnv(env, Compose(
+        UnsqueezeTransform(dim=-2, in_keys=["observation"], out_keys=["observation"]),
+        CatFrames(N=window, dim=-2, in_keys=["observation"], out_keys=["observation"]),
+        StepCounter(),
+        RewardSum(),
+    ))

@@ -1,0 +1,66 @@
+"""Trim of the nominal aircraft on an altitude x EAS grid, filled on demand and interpolated.
+
+Episode starts need a trimmed state in a few milliseconds; a full trim takes tens. The grid's
+cells are trimmed the first time a start falls in them and kept for the life of the process.
+"""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass
+
+import numpy as np
+
+from jsbsim_env.sim import ALTITUDE_RANGE_M, EAS_RANGE_MPS, Simulation
+
+GRID_ALTITUDES_M = np.array([0.0, 500.0, *np.arange(1000.0, 20001.0, 1000.0)])
+GRID_EAS_MPS = np.arange(EAS_RANGE_MPS[0], EAS_RANGE_MPS[1] + 0.01, 1.0)
+
+
+@dataclass(frozen=True)
+class TrimPoint:
+    alpha_deg: float
+    elevator_deg: float
+    throttle: float
+
+
+class TrimTable:
+    """Bilinear interpolation of trimmed alpha, elevator and throttle (nominal coefficients)."""
+
+    _shared: TrimTable | None = None
+    _lock = threading.Lock()
+
+    def __init__(self):
+        self._sim: Simulation | None = None
+        self._cells: dict[tuple[int, int], np.ndarray] = {}
+
+    @classmethod
+    def shared(cls) -> TrimTable:
+        """One table per process."""
+        with cls._lock:
+            if cls._shared is None:
+                cls._shared = cls()
+            return cls._shared
+
+    def _node(self, i: int, j: int) -> np.ndarray:
+        key = (i, j)
+        if key not in self._cells:
+            if self._sim is None:
+                self._sim = Simulation()
+                # Sea level is in the envelope; keep the gear clear of the terrain while trimming.
+                self._sim["ic/terrain-elevation-ft"] = -1000.0
+            t = self._sim.trim(float(GRID_ALTITUDES_M[i]), float(GRID_EAS_MPS[j]))
+            self._cells[key] = np.array([t.alpha_deg, t.elevator_deg, t.throttle])
+        return self._cells[key]
+
+    def lookup(self, altitude_m: float, airspeed_eas_mps: float) -> TrimPoint:
+        """Trim at any point of the envelope (clipped to it)."""
+        h = float(np.clip(altitude_m, *ALTITUDE_RANGE_M))
+        v = float(np.clip(airspeed_eas_mps, *EAS_RANGE_MPS))
+        i = int(np.clip(np.searchsorted(GRID_ALTITUDES_M, h) - 1, 0, len(GRID_ALTITUDES_M) - 2))
+        j = int(np.clip(np.searchsorted(GRID_EAS_MPS, v) - 1, 0, len(GRID_EAS_MPS) - 2))
+        fh = (h - GRID_ALTITUDES_M[i]) / (GRID_ALTITUDES_M[i + 1] - GRID_ALTITUDES_M[i])
+        fv = (v - GRID_EAS_MPS[j]) / (GRID_EAS_MPS[j + 1] - GRID_EAS_MPS[j])
+        x = ((1 - fh) * (1 - fv) * self._node(i, j) + fh * (1 - fv) * self._node(i + 1, j)
+             + (1 - fh) * fv * self._node(i, j + 1) + fh * fv * self._node(i + 1, j + 1))
+        return TrimPoint(*map(float, x))
