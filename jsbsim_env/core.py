@@ -47,6 +47,7 @@ COMMAND_LOW = np.array([-SURFACE_LIMITS_DEG["aileron"], -SURFACE_LIMITS_DEG["ele
                         0.0])
 COMMAND_HIGH = -COMMAND_LOW + np.array([0.0, 0.0, 0.0, 1.0])
 MAX_ROTOR_RPM = 1800.0
+DEG_TO_RAD = math.pi / 180.0
 
 
 @dataclass(frozen=True)
@@ -117,11 +118,20 @@ class FlightCore:
 
     def __init__(self, config: CoreConfig | None = None, root: Path | str | None = None):
         self.config = config or CoreConfig()
-        self.sim = Simulation(root, sim_rate_hz=self.config.sim_rate_hz)
-        self.dt_s = self.sim.dt_s
-        self.span_m = self.sim["metrics/bw-ft"] * FT_TO_M
+        self.root = root
         self.trim_table = TrimTable.shared()
         self.noise = dist.OrnsteinUhlenbeckNoise(NOISE_SIGMA, self.config.noise_reversion_per_s)
+        self._command_scale = np.array([1.0 / SURFACE_LIMITS_DEG["aileron"], 1.0 / SURFACE_LIMITS_DEG["elevator"],
+                                        1.0 / SURFACE_LIMITS_DEG["rudder"], 1.0])
+        self._load()
+        self.setup: EpisodeSetup | None = None
+        self.rng = np.random.default_rng()
+
+    def _load(self) -> None:
+        """A fresh JSBSim instance, with direct accessors to the properties used every step."""
+        self.sim = Simulation(self.root, sim_rate_hz=self.config.sim_rate_hz)
+        self.dt_s = self.sim.dt_s
+        self.span_m = self.sim["metrics/bw-ft"] * FT_TO_M
         f = self.sim.fdm
         pm = f.get_property_manager()
 
@@ -140,10 +150,6 @@ class FlightCore:
         self._set_command = [setter(n) for n in CONTROL_INPUTS]
         self._set_gust = [setter(f"atmosphere/gust-{a}-fps") for a in ("north", "east", "down")]
         self._set_gust_rate = [setter(f"atmosphere/gust-{a}-rad_sec") for a in "pqr"]
-        self._command_scale = np.array([1.0 / SURFACE_LIMITS_DEG["aileron"], 1.0 / SURFACE_LIMITS_DEG["elevator"],
-                                        1.0 / SURFACE_LIMITS_DEG["rudder"], 1.0])
-        self.setup: EpisodeSetup | None = None
-        self.rng = np.random.default_rng()
 
     # ------------------------------------------------------------------ episode start
     def reset(self, seed: int | None = None, altitude_m: float | None = None,
@@ -166,6 +172,10 @@ class FlightCore:
         alt = alt if altitude_m is None else float(altitude_m)
         eas = eas if airspeed_eas_mps is None else float(airspeed_eas_mps)
 
+        # A fresh JSBSim instance per episode (about 10 ms): JSBSim's initial-condition setters
+        # keep quantities from the previous state, which leaves round-off differences between
+        # episodes with the same seed. A fresh instance makes each episode a function of its seed alone.
+        self._load()
         sim, f = self.sim, self.sim.fdm
         f["simulation/randomseed"] = jsbsim_seed
         for term in self._scale_terms():
@@ -179,9 +189,7 @@ class FlightCore:
         rho_ratio = sim.density_kg_m3(alt) / RHO0_KG_M3
         tas = eas / math.sqrt(rho_ratio)
         sim.set_initial_conditions(alt, tas, alpha_deg=trim.alpha_deg)
-        # Restart JSBSim's models (actuators, filters, rotors) from rest so that the episode does
-        # not depend on the previous one, then bring actuators and rotors to the trim commands.
-        f.reset_to_initial_conditions(0)
+        # Bring actuators and rotors (at rest in a fresh instance) to the trim commands.
         trim_command = np.array([0.0, trim.elevator_deg, 0.0, trim.throttle])
         self._write_command(trim_command)
         sim.settle_actuators()
@@ -217,18 +225,22 @@ class FlightCore:
         command = np.asarray(command, dtype=float)
         if command.shape != (4,):
             raise CommandError(f"command must have 4 elements (aileron, elevator, rudder, throttle), got {command.shape}")
-        if not np.all(np.isfinite(command)):
-            raise CommandError(f"command is not finite: {command}")
-        if np.any(command < COMMAND_LOW - 1e-9) or np.any(command > COMMAND_HIGH + 1e-9):
-            raise CommandError(f"command {command} is outside [{COMMAND_LOW}, {COMMAND_HIGH}]")
+        # Written so that NaN fails too (every comparison with NaN is false).
+        if not (np.all(command >= COMMAND_LOW - 1e-9) and np.all(command <= COMMAND_HIGH + 1e-9)):
+            raise CommandError(f"command {command} is not finite or outside [{COMMAND_LOW}, {COMMAND_HIGH}]")
         return command
 
-    def step(self, command: np.ndarray) -> np.ndarray:
+    def step(self, command: np.ndarray, checked: bool = False) -> np.ndarray:
         """Give ``command`` at the current control instant and fly to the next one.
 
-        Returns the measurement at the next control instant.
+        Returns the measurement at the next control instant. ``checked`` skips the validation
+        of a command that its caller built from a validated action.
         """
-        command = self.check_command(command)
+        self.fly(command if checked else self.check_command(command))
+        return self._measure()
+
+    def fly(self, command: np.ndarray) -> None:
+        """``step`` without the validation and the measurement (the batched task measures itself)."""
         setup = self.setup
         k = self.step_index
         # Simulation step at which the command reaches the actuators, and the one that ends the interval.
@@ -245,7 +257,6 @@ class FlightCore:
         self.sim_steps = n
         self.step_index = k + 1
         self._apply_gusts()
-        return self._measure()
 
     def _write_command(self, command: np.ndarray) -> None:
         self.applied_command = command
@@ -266,12 +277,17 @@ class FlightCore:
             s(float(v))
 
     # ------------------------------------------------------------------ measurements
-    def true_state(self) -> np.ndarray:
-        """The state of SPEC Eq. 18 without noise (see ``STATE_NAMES``)."""
+    def true_state(self, out: np.ndarray | None = None) -> np.ndarray:
+        """The state of SPEC Eq. 18 without noise (see ``STATE_NAMES``), into ``out`` if given."""
         g = self._get_state
-        eas = math.sqrt(g[13]() / RHO0_SLUG_FT3) * g[6]() * FT_TO_M
-        return np.array([g[0](), g[1](), g[2](), g[3](), g[4](), g[5](), eas, g[7](), g[8](), math.radians(g[9]()),
-                         math.radians(g[10]()), math.radians(g[11]()), g[12]() / MAX_ROTOR_RPM])
+        out = np.empty(N_STATE) if out is None else out
+        out[:] = (g[0](), g[1](), g[2](), g[3](), g[4](), g[5](), math.sqrt(g[13]() / RHO0_SLUG_FT3) * g[6]() * FT_TO_M,
+                  g[7](), g[8](), g[9]() * DEG_TO_RAD, g[10]() * DEG_TO_RAD, g[11]() * DEG_TO_RAD,
+                  g[12]() / MAX_ROTOR_RPM)
+        return out
+
+    def height_above_ground_m(self) -> float:
+        return self._get_state[15]() * FT_TO_M
 
     def _measure(self) -> np.ndarray:
         state = self.true_state()
@@ -286,22 +302,40 @@ class FlightCore:
 
     def envelope_violation(self) -> str | None:
         """Why the aircraft has left the flight envelope, or None."""
-        s = self.last_true_state
-        env = self.config.envelope
-        if not np.all(np.isfinite(s)):
-            return "non-finite state"
-        if self._get_state[15]() * FT_TO_M < env.altitude_range_m[0]:
-            return "ground strike"
-        if s[0] > env.altitude_range_m[1]:
-            return f"altitude above {env.altitude_range_m[1]:g} m"
-        if abs(math.degrees(s[1])) > env.max_abs_roll_deg:
-            return f"roll beyond {env.max_abs_roll_deg:g} deg"
-        if abs(math.degrees(s[2])) > env.max_abs_pitch_deg:
-            return f"pitch beyond {env.max_abs_pitch_deg:g} deg"
-        lo, hi = env.alpha_range_deg
-        if not lo <= math.degrees(s[7]) <= hi:
-            return f"angle of attack outside {lo:g}..{hi:g} deg"
-        lo, hi = env.eas_range_mps
-        if not lo <= s[6] <= hi:
-            return f"equivalent airspeed outside {lo:g}..{hi:g} m/s"
+        code = envelope_codes(self.last_true_state[None], np.array([self.height_above_ground_m()]),
+                              self.config.envelope)[0]
+        return termination_reason(code, self.config.envelope)
+
+
+# Episode-end causes, in the order they are checked; code 0 is "inside the envelope".
+TERMINATION_CAUSES = ("", "non-finite state", "ground strike", "altitude too high", "roll limit", "pitch limit",
+                      "angle of attack limit", "airspeed limit")
+
+
+def envelope_codes(states: np.ndarray, height_agl_m: np.ndarray, env: Envelope) -> np.ndarray:
+    """Index into ``TERMINATION_CAUSES`` for each row of ``states`` (N x 13), vectorised."""
+    with np.errstate(invalid="ignore"):
+        checks = (
+            ~np.isfinite(states).all(axis=1),
+            height_agl_m < env.altitude_range_m[0],
+            states[:, 0] > env.altitude_range_m[1],
+            np.abs(states[:, 1]) > math.radians(env.max_abs_roll_deg),
+            np.abs(states[:, 2]) > math.radians(env.max_abs_pitch_deg),
+            (states[:, 7] < math.radians(env.alpha_range_deg[0])) | (states[:, 7] > math.radians(env.alpha_range_deg[1])),
+            (states[:, 6] < env.eas_range_mps[0]) | (states[:, 6] > env.eas_range_mps[1]),
+        )
+    codes = np.zeros(len(states), dtype=np.int64)
+    for i in range(len(checks) - 1, -1, -1):  # the first failing check wins
+        codes[checks[i]] = i + 1
+    return codes
+
+
+def termination_reason(code: int, env: Envelope) -> str | None:
+    """A readable reason for an ``envelope_codes`` entry, with the limit that was passed."""
+    if code == 0:
         return None
+    limits = {3: f" ({env.altitude_range_m[1]:g} m)", 4: f" ({env.max_abs_roll_deg:g} deg)",
+              5: f" ({env.max_abs_pitch_deg:g} deg)", 6: f" ({env.alpha_range_deg[0]:g}..{env.alpha_range_deg[1]:g} deg)",
+              7: f" ({env.eas_range_mps[0]:g}..{env.eas_range_mps[1]:g} m/s EAS)",
+              2: f" (below {env.altitude_range_m[0]:g} m above ground)"}
+    return TERMINATION_CAUSES[code] + limits.get(int(code), "")

@@ -14,9 +14,8 @@ from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import Compose, EnvBase, RewardSum, StepCounter, TransformedEnv
 from torchrl.envs.transforms import CatFrames, UnsqueezeTransform
 
-from jsbsim_env.task import ACTION_SIZE, OBS_SIZE, AttitudeTask, TaskConfig
+from jsbsim_env.task import ACTION_SIZE, OBS_SIZE, REWARD_TERMS, AttitudeTaskBatch, TaskConfig
 
-REWARD_TERMS = ("penalty_roll", "penalty_pitch", "penalty_airspeed", "penalty_beta")
 OBSERVATION_WINDOW = 8  # SPEC section 3: the policy sees the last 8 observations
 
 
@@ -38,7 +37,7 @@ class SolarUAVAttitudeEnv(EnvBase):
     def __init__(self, num_envs: int = 8, config: TaskConfig | None = None, seed: int = 0, device="cpu"):
         super().__init__(device=device, batch_size=torch.Size([num_envs]))
         self.num_envs = num_envs
-        self.tasks = [AttitudeTask(config) for _ in range(num_envs)]
+        self.batch = AttitudeTaskBatch(num_envs, config)
         self._episodes = np.zeros(num_envs, dtype=np.int64)
         self._base_seed = int(seed)
         n = (num_envs,)
@@ -57,7 +56,7 @@ class SolarUAVAttitudeEnv(EnvBase):
         )
         self._obs = np.zeros((num_envs, OBS_SIZE), dtype=np.float32)
         self._terms = np.zeros((num_envs, len(REWARD_TERMS)), dtype=np.float32)
-        self.last_info: list[dict] = [{} for _ in range(num_envs)]
+        self.last_codes = np.zeros(num_envs, dtype=np.int64)  # core.TERMINATION_CAUSES of the last step
 
     def _set_seed(self, seed: int | None) -> None:
         self._base_seed = int(seed) if seed is not None else int(np.random.SeedSequence().entropy % 2**31)
@@ -67,28 +66,22 @@ class SolarUAVAttitudeEnv(EnvBase):
         mask = None
         if tensordict is not None and "_reset" in tensordict.keys():  # noqa: SIM118 (TensorDict membership needs keys())
             mask = tensordict["_reset"].reshape(self.num_envs).cpu().numpy()
-        for i, task in enumerate(self.tasks):
+        for i in range(self.num_envs):
             if mask is not None and not mask[i]:
                 continue
-            obs, _ = task.reset(episode_seed(self._base_seed, i, int(self._episodes[i])))
+            self._obs[i] = self.batch.reset_one(i, episode_seed(self._base_seed, i, int(self._episodes[i])))
             self._episodes[i] += 1
-            self._obs[i] = obs
             self._terms[i] = 0.0
         out = self._output(np.zeros(self.num_envs), np.zeros(self.num_envs, bool), np.zeros(self.num_envs, bool))
         del out["reward"]
         return out
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
-        actions = tensordict["action"].detach().cpu().numpy().astype(np.float64)
-        rewards = np.empty(self.num_envs)
-        terminated = np.empty(self.num_envs, bool)
-        truncated = np.empty(self.num_envs, bool)
-        for i, task in enumerate(self.tasks):
-            obs, rewards[i], terminated[i], truncated[i], info = task.step(actions[i])
-            self._obs[i] = obs
-            self._terms[i] = [info[k] for k in REWARD_TERMS]
-            self.last_info[i] = info
-        return self._output(rewards, terminated, truncated)
+        obs, terms, terminated, truncated, codes = self.batch.step(tensordict["action"].detach().cpu().numpy())
+        self._obs[:] = obs
+        self._terms[:] = terms[:, :4]
+        self.last_codes = codes
+        return self._output(terms[:, 4], terminated, truncated)
 
     def _output(self, rewards, terminated, truncated) -> TensorDictBase:
         n = self.num_envs

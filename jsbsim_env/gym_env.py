@@ -1,0 +1,49 @@
+"""Gymnasium environment over the same task, registered as ``SolarUAVAttitude-v0``.
+
+    import gymnasium as gym, jsbsim_env
+    env = gym.make("SolarUAVAttitude-v0")
+
+One aircraft, observation (16,) float32 and action (4,) float32 in [-1, 1] as described in
+``jsbsim_env.task``; ``info`` carries every reward term and the termination reason. Pass
+``config=TaskConfig(...)`` to ``gym.make`` to change the disturbances.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import gymnasium as gym
+import numpy as np
+
+from jsbsim_env.task import ACTION_SIZE, OBS_SIZE, AttitudeTask, TaskConfig
+
+
+class SolarUAVAttitudeGymEnv(gym.Env):
+    """The attitude-tracking task as a gymnasium environment (see ``jsbsim_env.task`` for the tables)."""
+
+    metadata: ClassVar[dict] = {"render_modes": []}
+
+    def __init__(self, config: TaskConfig | None = None):
+        self.task = AttitudeTask(config)
+        self.observation_space = gym.spaces.Box(-np.inf, np.inf, shape=(OBS_SIZE,), dtype=np.float32)
+        self.action_space = gym.spaces.Box(-1.0, 1.0, shape=(ACTION_SIZE,), dtype=np.float32)
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        # Every draw of the episode comes from a seed taken from gymnasium's own generator, so a
+        # reset without a seed continues the stream that the last seeded reset started.
+        episode_seed = int(self.np_random.integers(2**63))
+        obs, info = self.task.reset(episode_seed, **(options or {}))
+        return obs, info
+
+    def step(self, action):
+        return self.task.step(np.asarray(action, dtype=np.float64))
+
+
+ENV_ID = "SolarUAVAttitude-v0"
+
+
+def register() -> None:
+    """Register ``SolarUAVAttitude-v0`` with gymnasium (done on ``import jsbsim_env``)."""
+    if ENV_ID not in gym.registry:
+        gym.register(id=ENV_ID, entry_point="jsbsim_env.gym_env:SolarUAVAttitudeGymEnv", max_episode_steps=None)
