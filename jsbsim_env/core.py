@@ -16,6 +16,7 @@ Timing, per episode (SPEC section 3):
 
 from __future__ import annotations
 
+import functools
 import math
 from collections import deque
 from dataclasses import dataclass, field, replace
@@ -28,6 +29,7 @@ from jsbsim_env.sim import (
     CONTROL_INPUTS,
     EAS_RANGE_MPS,
     FT_TO_M,
+    M_TO_FT,
     RHO0_KG_M3,
     RHO0_SLUG_FT3,
     SURFACE_LIMITS_DEG,
@@ -121,8 +123,8 @@ class FlightCore:
         self.root = root
         self.trim_table = TrimTable.shared()
         self.noise = dist.OrnsteinUhlenbeckNoise(NOISE_SIGMA, self.config.noise_reversion_per_s)
-        self._command_scale = np.array([1.0 / SURFACE_LIMITS_DEG["aileron"], 1.0 / SURFACE_LIMITS_DEG["elevator"],
-                                        1.0 / SURFACE_LIMITS_DEG["rudder"], 1.0])
+        self._command_scale = (1.0 / SURFACE_LIMITS_DEG["aileron"], 1.0 / SURFACE_LIMITS_DEG["elevator"],
+                               1.0 / SURFACE_LIMITS_DEG["rudder"], 1.0)
         self._load()
         self.setup: EpisodeSetup | None = None
         self.rng = np.random.default_rng()
@@ -169,6 +171,7 @@ class FlightCore:
         scales = dist.draw_scales(parameters or cfg.parameters, rng)
         turbulence_seed = int(rng.integers(2**31 - 1))
         jsbsim_seed = int(rng.integers(2**31 - 1))
+        noise_seed = int(rng.integers(2**63))
         alt = alt if altitude_m is None else float(altitude_m)
         eas = eas if airspeed_eas_mps is None else float(airspeed_eas_mps)
 
@@ -192,7 +195,7 @@ class FlightCore:
         # Bring actuators and rotors (at rest in a fresh instance) to the trim commands.
         trim_command = np.array([0.0, trim.elevator_deg, 0.0, trim.throttle])
         self._write_command(trim_command)
-        sim.settle_actuators()
+        sim.settle_actuators(fast=True)
         att = np.radians(cfg.perturb_attitude_deg) * perturb[:2]
         rates = np.radians(cfg.perturb_rate_degps) * perturb[2:5]
         eas0 = eas + cfg.perturb_eas_mps * perturb[5]
@@ -205,7 +208,10 @@ class FlightCore:
         if cfg.turbulence:
             self.turbulence = dist.dryden_series(cfg.max_steps + 1, alt, tas, self.span_m, cfg.turbulence_sigma_mps,
                                                  interval, np.random.default_rng(turbulence_seed))
-        self.noise.reset()
+            # Plain lists: indexing them every step is several times cheaper than numpy rows.
+            self._gust_wind = self.turbulence.wind_mps.tolist()
+            self._gust_rate = self.turbulence.rate_radps.tolist()
+        self.noise.reset(np.random.default_rng(noise_seed), cfg.max_steps + 1)
         self.step_index = 0
         self.sim_steps = 0
         self._pending: deque[tuple[int, np.ndarray]] = deque()
@@ -239,8 +245,11 @@ class FlightCore:
         self.fly(command if checked else self.check_command(command))
         return self._measure()
 
-    def fly(self, command: np.ndarray) -> None:
-        """``step`` without the validation and the measurement (the batched task measures itself)."""
+    def fly(self, command) -> None:
+        """``step`` without the validation and the measurement (the batched task measures itself).
+
+        ``command``: aileron, elevator, rudder (deg), throttle; any sequence of 4 floats.
+        """
         setup = self.setup
         k = self.step_index
         # Simulation step at which the command reaches the actuators, and the one that ends the interval.
@@ -258,33 +267,30 @@ class FlightCore:
         self.step_index = k + 1
         self._apply_gusts()
 
-    def _write_command(self, command: np.ndarray) -> None:
+    def _write_command(self, command) -> None:
         self.applied_command = command
-        normalised = command * self._command_scale
-        for s, v in zip(self._set_command, normalised):
-            s(float(v))
+        for s, v, k in zip(self._set_command, command, self._command_scale):
+            s(v * k)
 
     def _apply_gusts(self) -> None:
         """Hold the turbulence sample of this control interval (zero-order hold)."""
         if self.turbulence is None:
             return
-        k = min(self.step_index, len(self.turbulence.wind_mps) - 1)
+        k = min(self.step_index, len(self._gust_wind) - 1)
         g = self._get_state
-        ned = dist.body_to_ned(g[1](), g[2](), g[14](), self.turbulence.wind_mps[k])
+        ned = dist.body_to_ned(g[1](), g[2](), g[14](), self._gust_wind[k])
         for s, v in zip(self._set_gust, ned):
-            s(v / FT_TO_M)
-        for s, v in zip(self._set_gust_rate, self.turbulence.rate_radps[k]):
-            s(float(v))
+            s(v * M_TO_FT)
+        for s, v in zip(self._set_gust_rate, self._gust_rate[k]):
+            s(v)
 
     # ------------------------------------------------------------------ measurements
-    def true_state(self, out: np.ndarray | None = None) -> np.ndarray:
-        """The state of SPEC Eq. 18 without noise (see ``STATE_NAMES``), into ``out`` if given."""
+    def true_state(self) -> list[float]:
+        """The state of SPEC Eq. 18 without noise (see ``STATE_NAMES``) as a list."""
         g = self._get_state
-        out = np.empty(N_STATE) if out is None else out
-        out[:] = (g[0](), g[1](), g[2](), g[3](), g[4](), g[5](), math.sqrt(g[13]() / RHO0_SLUG_FT3) * g[6]() * FT_TO_M,
-                  g[7](), g[8](), g[9]() * DEG_TO_RAD, g[10]() * DEG_TO_RAD, g[11]() * DEG_TO_RAD,
-                  g[12]() / MAX_ROTOR_RPM)
-        return out
+        return [g[0](), g[1](), g[2](), g[3](), g[4](), g[5](), math.sqrt(g[13]() / RHO0_SLUG_FT3) * g[6]() * FT_TO_M,
+                g[7](), g[8](), g[9]() * DEG_TO_RAD, g[10]() * DEG_TO_RAD, g[11]() * DEG_TO_RAD,
+                g[12]() / MAX_ROTOR_RPM]
 
     def height_above_ground_m(self) -> float:
         return self._get_state[15]() * FT_TO_M
@@ -293,8 +299,8 @@ class FlightCore:
         state = self.true_state()
         self.last_true_state = state
         if self.config.sensor_noise:
-            return state + self.noise.step(self.setup.control_interval_s, self.rng)
-        return state
+            return np.array(state) + self.noise.step(self.setup.control_interval_s, self.rng)
+        return np.array(state)
 
     @property
     def time_s(self) -> float:
@@ -302,8 +308,7 @@ class FlightCore:
 
     def envelope_violation(self) -> str | None:
         """Why the aircraft has left the flight envelope, or None."""
-        code = envelope_codes(self.last_true_state[None], np.array([self.height_above_ground_m()]),
-                              self.config.envelope)[0]
+        code = envelope_code(self.last_true_state, self.height_above_ground_m(), self.config.envelope)
         return termination_reason(code, self.config.envelope)
 
 
@@ -312,26 +317,35 @@ TERMINATION_CAUSES = ("", "non-finite state", "ground strike", "altitude too hig
                       "angle of attack limit", "airspeed limit")
 
 
-def envelope_codes(states: np.ndarray, height_agl_m: np.ndarray, env: Envelope) -> np.ndarray:
-    """Index into ``TERMINATION_CAUSES`` for each row of ``states`` (N x 13), vectorised."""
-    with np.errstate(invalid="ignore"):
-        checks = (
-            ~np.isfinite(states).all(axis=1),
-            height_agl_m < env.altitude_range_m[0],
-            states[:, 0] > env.altitude_range_m[1],
-            np.abs(states[:, 1]) > math.radians(env.max_abs_roll_deg),
-            np.abs(states[:, 2]) > math.radians(env.max_abs_pitch_deg),
-            (states[:, 7] < math.radians(env.alpha_range_deg[0])) | (states[:, 7] > math.radians(env.alpha_range_deg[1])),
-            (states[:, 6] < env.eas_range_mps[0]) | (states[:, 6] > env.eas_range_mps[1]),
-        )
-    codes = np.zeros(len(states), dtype=np.int64)
-    for i in range(len(checks) - 1, -1, -1):  # the first failing check wins
-        codes[checks[i]] = i + 1
-    return codes
+@functools.lru_cache(maxsize=16)
+def _envelope_bounds(env: Envelope) -> tuple[float, ...]:
+    r = math.radians
+    return (env.altitude_range_m[0], env.altitude_range_m[1], r(env.max_abs_roll_deg), r(env.max_abs_pitch_deg),
+            r(env.alpha_range_deg[0]), r(env.alpha_range_deg[1]), env.eas_range_mps[0], env.eas_range_mps[1])
+
+
+def envelope_code(state, height_agl_m: float, env: Envelope) -> int:
+    """Index into ``TERMINATION_CAUSES`` for one state (``STATE_NAMES`` order); 0 inside the envelope."""
+    agl_min, alt_max, roll_max, pitch_max, alpha_lo, alpha_hi, eas_lo, eas_hi = _envelope_bounds(env)
+    if not math.isfinite(sum(state) + height_agl_m):  # NaN and inf propagate through the sum
+        return 1
+    if height_agl_m < agl_min:
+        return 2
+    if state[0] > alt_max:
+        return 3
+    if abs(state[1]) > roll_max:
+        return 4
+    if abs(state[2]) > pitch_max:
+        return 5
+    if not alpha_lo <= state[7] <= alpha_hi:
+        return 6
+    if not eas_lo <= state[6] <= eas_hi:
+        return 7
+    return 0
 
 
 def termination_reason(code: int, env: Envelope) -> str | None:
-    """A readable reason for an ``envelope_codes`` entry, with the limit that was passed."""
+    """A readable reason for an ``envelope_code``, with the limit that was passed."""
     if code == 0:
         return None
     limits = {3: f" ({env.altitude_range_m[1]:g} m)", 4: f" ({env.max_abs_roll_deg:g} deg)",

@@ -20,25 +20,43 @@ class OrnsteinUhlenbeckNoise:
 
     dx = -reversion * x dt + sigma dW, integrated exactly over each step. With the reversion rate
     0 (the value the paper prints) it is a random walk whose increments over dt have standard
-    deviation sigma * sqrt(dt).
+    deviation sigma * sqrt(dt). Works on plain lists: the vectors are short and stepped often.
     """
 
-    def __init__(self, sigma: np.ndarray, reversion_per_s: float = 0.0):
-        self.sigma = np.asarray(sigma, dtype=float)
+    def __init__(self, sigma, reversion_per_s: float = 0.0):
+        self.sigma = [float(x) for x in sigma]
         self.reversion_per_s = float(reversion_per_s)
-        self.state = np.zeros_like(self.sigma)
+        self.reset()
 
-    def reset(self) -> None:
-        self.state = np.zeros_like(self.sigma)
+    def reset(self, rng: np.random.Generator | None = None, steps: int = 0) -> None:
+        """Zero the noise; with ``rng``, draw the white noise of ``steps`` steps now (one call
+        instead of one per step; the same values in the same order)."""
+        self.state = [0.0] * len(self.sigma)
+        self._dt_s = None
+        self._drawn = rng.standard_normal((steps, len(self.sigma))).tolist() if rng is not None else []
+        self._next = 0
 
-    def step(self, dt_s: float, rng: np.random.Generator) -> np.ndarray:
-        k = self.reversion_per_s
-        if k > 0.0:
-            decay = math.exp(-k * dt_s)
-            scale = self.sigma * math.sqrt((1.0 - decay * decay) / (2.0 * k))
+    def step(self, dt_s: float, rng: np.random.Generator) -> list[float]:
+        """Advance by ``dt_s`` and return the noise (a list, one value per state element).
+
+        Uses the white noise drawn at ``reset`` while it lasts, then draws from ``rng``.
+        """
+        if dt_s != self._dt_s:
+            k = self.reversion_per_s
+            if k > 0.0:
+                self._decay = math.exp(-k * dt_s)
+                factor = math.sqrt((1.0 - self._decay**2) / (2.0 * k))
+            else:
+                self._decay, factor = 1.0, math.sqrt(dt_s)
+            self._scale = [sig * factor for sig in self.sigma]
+            self._dt_s = dt_s
+        d = self._decay
+        if self._next < len(self._drawn):
+            eps = self._drawn[self._next]
+            self._next += 1
         else:
-            decay, scale = 1.0, self.sigma * math.sqrt(dt_s)
-        self.state = decay * self.state + scale * rng.standard_normal(self.sigma.shape)
+            eps = rng.standard_normal(len(self.sigma)).tolist()
+        self.state = [d * x + c * e for x, c, e in zip(self.state, self._scale, eps)]
         return self.state
 
 
@@ -63,6 +81,26 @@ def dryden_scale_lengths_m(altitude_m: float) -> tuple[float, float, float]:
     return tuple(a + f * (1750.0 * FT - a) for a in lo)
 
 
+def _bilinear(num: np.ndarray, den: np.ndarray, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Tustin transform s = (2/dt)(z-1)/(z+1) of a transfer function (coefficients highest power
+    first); the same result as ``scipy.signal.bilinear``, without its polynomial objects (100x faster)."""
+    n = max(len(num), len(den)) - 1
+    c = 2.0 / dt_s
+    minus, plus = [np.ones(1)], [np.ones(1)]
+    for _ in range(n):
+        minus.append(np.convolve(minus[-1], [1.0, -1.0]))
+        plus.append(np.convolve(plus[-1], [1.0, 1.0]))
+
+    def transform(poly: np.ndarray) -> np.ndarray:
+        out = np.zeros(n + 1)
+        for k, coef in enumerate(poly[::-1]):  # coef multiplies s**k
+            out += coef * c**k * np.convolve(minus[k], plus[n - k])
+        return out
+
+    b, a = transform(num), transform(den)
+    return b / a[0], a / a[0]
+
+
 def dryden_filters(altitude_m: float, airspeed_mps: float, span_m: float, sigma_mps: float,
                    dt_s: float) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Discrete Dryden shaping filters (MIL-F-8785C) for u, v, w gusts and p, q, r rates.
@@ -78,21 +116,20 @@ def dryden_filters(altitude_m: float, airspeed_mps: float, span_m: float, sigma_
     # Continuous shaping filters for white noise of unit two-sided spectral density.
     tfs = {
         "u": ([s * math.sqrt(2.0 * lu / (math.pi * v))], [lu / v, 1.0]),
-        "v": (np.polymul([math.sqrt(3.0) * lv / v, 1.0], [s * math.sqrt(lv / (math.pi * v))]),
-              np.polymul([lv / v, 1.0], [lv / v, 1.0])),
-        "w": (np.polymul([math.sqrt(3.0) * lw / v, 1.0], [s * math.sqrt(lw / (math.pi * v))]),
-              np.polymul([lw / v, 1.0], [lw / v, 1.0])),
+        "v": (np.convolve([math.sqrt(3.0) * lv / v, 1.0], [s * math.sqrt(lv / (math.pi * v))]),
+              np.convolve([lv / v, 1.0], [lv / v, 1.0])),
+        "w": (np.convolve([math.sqrt(3.0) * lw / v, 1.0], [s * math.sqrt(lw / (math.pi * v))]),
+              np.convolve([lw / v, 1.0], [lw / v, 1.0])),
     }
     p_gain = s * math.sqrt(0.8 / v) * (math.pi / (4.0 * span_m)) ** (1.0 / 6.0) / (2.0 * lw) ** (1.0 / 3.0)
     tfs["p"] = ([p_gain], [4.0 * span_m / (math.pi * v), 1.0])
     num_w, den_w = tfs["w"]
-    tfs["q"] = (np.polymul([1.0 / v, 0.0], num_w), np.polymul([4.0 * span_m / (math.pi * v), 1.0], den_w))
+    tfs["q"] = (np.convolve([1.0 / v, 0.0], num_w), np.convolve([4.0 * span_m / (math.pi * v), 1.0], den_w))
     num_v, den_v = tfs["v"]
-    tfs["r"] = (np.polymul([-1.0 / v, 0.0], num_v), np.polymul([3.0 * span_m / (math.pi * v), 1.0], den_v))
+    tfs["r"] = (np.convolve([-1.0 / v, 0.0], num_v), np.convolve([3.0 * span_m / (math.pi * v), 1.0], den_v))
     out = {}
     for name, (num, den) in tfs.items():
-        num_d, den_d, _ = signal.cont2discrete((num, den), dt_s, method="bilinear")
-        out[name] = (np.atleast_1d(np.squeeze(num_d)), den_d)
+        out[name] = _bilinear(np.asarray(num, float), np.asarray(den, float), dt_s)
     return out
 
 

@@ -28,14 +28,16 @@ class SolarUAVAttitudeEnv(EnvBase):
     """Attitude tracking for the solar UAV, ``num_envs`` aircraft stepped together.
 
     Keys: ``observation`` (num_envs, 16) float32, ``action`` (num_envs, 4) in [-1, 1],
-    ``reward`` (num_envs, 1), ``done``/``terminated``/``truncated`` (num_envs, 1), and each
-    reward term (num_envs, 1), which sum with the reward as ``1 - sum(penalties)``.
+    ``reward`` (num_envs, 1), ``done``/``terminated``/``truncated`` (num_envs, 1), and
+    ``reward_terms`` (num_envs, 4): the penalties of ``task.REWARD_TERMS``, with
+    ``reward = 1 - reward_terms.sum(-1)``.
     """
 
     batch_locked = True
 
-    def __init__(self, num_envs: int = 8, config: TaskConfig | None = None, seed: int = 0, device="cpu"):
-        super().__init__(device=device, batch_size=torch.Size([num_envs]))
+    def __init__(self, num_envs: int = 8, config: TaskConfig | None = None, seed: int = 0):
+        # The simulation runs on the CPU; collectors move the data to a training device.
+        super().__init__(device="cpu", batch_size=torch.Size([num_envs]))
         self.num_envs = num_envs
         self.batch = AttitudeTaskBatch(num_envs, config)
         self._episodes = np.zeros(num_envs, dtype=np.int64)
@@ -43,7 +45,7 @@ class SolarUAVAttitudeEnv(EnvBase):
         n = (num_envs,)
         self.observation_spec = Composite(
             observation=Unbounded(shape=(*n, OBS_SIZE), dtype=torch.float32),
-            **{k: Unbounded(shape=(*n, 1), dtype=torch.float32) for k in REWARD_TERMS},
+            reward_terms=Unbounded(shape=(*n, len(REWARD_TERMS)), dtype=torch.float32),
             shape=n,
         )
         self.action_spec = Bounded(low=-1.0, high=1.0, shape=(*n, ACTION_SIZE), dtype=torch.float32)
@@ -85,23 +87,21 @@ class SolarUAVAttitudeEnv(EnvBase):
 
     def _output(self, rewards, terminated, truncated) -> TensorDictBase:
         n = self.num_envs
-        terminated_t = torch.as_tensor(terminated).reshape(n, 1)
-        truncated_t = torch.as_tensor(truncated).reshape(n, 1)
-        terms = torch.from_numpy(self._terms.copy())
+        terminated_t = torch.from_numpy(np.asarray(terminated, dtype=bool)).reshape(n, 1)
+        truncated_t = torch.from_numpy(np.asarray(truncated, dtype=bool)).reshape(n, 1)
         return TensorDict(
-            {"observation": torch.from_numpy(self._obs.copy()),
-             **{k: terms[:, j:j + 1] for j, k in enumerate(REWARD_TERMS)},
-             "reward": torch.as_tensor(rewards, dtype=torch.float32).reshape(n, 1),
+            {"observation": torch.from_numpy(self._obs.copy()), "reward_terms": torch.from_numpy(self._terms.copy()),
+             "reward": torch.from_numpy(np.asarray(rewards, dtype=np.float32)).reshape(n, 1),
              "terminated": terminated_t, "truncated": truncated_t, "done": terminated_t | truncated_t},
-            batch_size=self.batch_size, device=self.device,
+            batch_size=self.batch_size,
         )
 
 
-def make_env(num_envs: int = 8, config: TaskConfig | None = None, seed: int = 0, device="cpu",
+def make_env(num_envs: int = 8, config: TaskConfig | None = None, seed: int = 0,
              window: int = OBSERVATION_WINDOW) -> TransformedEnv:
     """The training environment: the 8-step observation window (``observation`` becomes
     (num_envs, window, 16), oldest first), a step counter and the episode reward sum."""
-    env = SolarUAVAttitudeEnv(num_envs, config, seed, device)
+    env = SolarUAVAttitudeEnv(num_envs, config, seed)
     return TransformedEnv(env, Compose(
         UnsqueezeTransform(dim=-2, in_keys=["observation"], out_keys=["observation"]),
         CatFrames(N=window, dim=-2, in_keys=["observation"], out_keys=["observation"]),

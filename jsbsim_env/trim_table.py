@@ -53,6 +53,12 @@ class TrimTable:
             self._cells[key] = np.array([t.alpha_deg, t.elevator_deg, t.throttle])
         return self._cells[key]
 
+    def fill(self) -> None:
+        """Trim every grid point now (about 3 s) instead of on first use."""
+        for i in range(len(GRID_ALTITUDES_M)):
+            for j in range(len(GRID_EAS_MPS)):
+                self._node(i, j)
+
     def lookup(self, altitude_m: float, airspeed_eas_mps: float) -> TrimPoint:
         """Trim at any point of the envelope (clipped to it)."""
         h = float(np.clip(altitude_m, *ALTITUDE_RANGE_M))

@@ -4,11 +4,13 @@ In one process, interleaved in rounds (medians reported):
 
 * raw: ``fdm.run()`` of the solar UAV at the environment's simulation rate;
 * task: the attitude task (flight core with every disturbance on, reward, goals) without an RL library;
-* torchrl single / batched: ``SolarUAVAttitudeEnv`` with 1 and ``--batch`` aircraft, every
-  disturbance on, stepped through TorchRL's ``step`` and ``step_mdp``, resets included.
+* torchrl batchN: ``SolarUAVAttitudeEnv`` with 1 and ``--batch`` aircraft, every disturbance on,
+  stepped through TorchRL's ``step_and_maybe_reset``, resets included;
+* torchrl Kproc: K processes, each a batched environment, stepping at once (the two cores of
+  this machine, as a multi-process collector would use them); measured after the rounds.
 
-The actions hold each aircraft's trim command plus a little noise, so that episodes run their
-full length like those of a trained policy. Ratios are env / raw.
+The actions hold wings level and pitch near trim by a little feedback (plus noise), so that
+episodes run their full length like those of a trained policy. Ratios are env / raw.
 
     python scripts/bench_env.py --json
 """
@@ -17,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import multiprocessing
 import statistics
 import time
 
@@ -26,6 +29,7 @@ import torch
 from jsbsim_env.core import CoreConfig, FlightCore
 from jsbsim_env.task import AttitudeTask, command_to_action
 from jsbsim_env.torchrl_env import SolarUAVAttitudeEnv
+from jsbsim_env.trim_table import TrimTable
 
 
 def raw_rate(seconds: float) -> float:
@@ -38,8 +42,13 @@ def raw_rate(seconds: float) -> float:
     return n * core.dt_s / (time.perf_counter() - t0)
 
 
-def _hold_trim(setup, rng) -> np.ndarray:
-    return np.clip(command_to_action(setup.trim_command) + 0.01 * rng.standard_normal(4), -1.0, 1.0)
+def _hold_attitude(core, rng) -> np.ndarray:
+    """Wings level and trimmed pitch by proportional-derivative feedback on the true state, so that
+    episodes run their full length as under a trained policy (the spiral mode diverges otherwise)."""
+    s, trim = core.last_true_state, core.setup.trim_command
+    roll, pitch, p, q = np.degrees(s[1:5])
+    command = trim + np.array([1.5 * roll + 0.5 * p, 2.0 * pitch + 0.5 * q, 0.0, 0.0])
+    return np.clip(command_to_action(command) + 0.01 * rng.standard_normal(4), -1.0, 1.0)
 
 
 def task_rate(seconds: float, seed: int) -> float:
@@ -47,7 +56,7 @@ def task_rate(seconds: float, seed: int) -> float:
     task.reset(seed)
     sim_s, t0 = 0.0, time.perf_counter()
     while sim_s < seconds:
-        _, _, terminated, truncated, _ = task.step(_hold_trim(task.core.setup, rng))
+        _, _, terminated, truncated, _ = task.step(_hold_attitude(task.core, rng))
         sim_s += task.core.setup.control_interval_s
         if terminated or truncated:
             task.reset(int(rng.integers(2**31)))
@@ -59,34 +68,65 @@ def torchrl_rate(env: SolarUAVAttitudeEnv, seconds: float, seed: int) -> float:
     td = env.reset()
     sim_s, t0 = 0.0, time.perf_counter()
     while sim_s < seconds:
-        actions = np.stack([_hold_trim(c.setup, rng) for c in env.batch.cores]).astype(np.float32)
+        actions = np.stack([_hold_attitude(c, rng) for c in env.batch.cores]).astype(np.float32)
         td["action"] = torch.from_numpy(actions)
         sim_s += float(env.batch.interval_s.sum())
         td = env.step_and_maybe_reset(td)[1]
     return sim_s / (time.perf_counter() - t0)
 
 
+def _worker(args) -> tuple[float, float]:
+    """One process of the multi-process measurement: (simulated seconds, wall seconds)."""
+    batch, seconds, seed = args
+    torch.set_num_threads(1)
+    TrimTable.shared().fill()
+    env = SolarUAVAttitudeEnv(batch, seed=seed)
+    rate = torchrl_rate(env, seconds * batch, seed)
+    return seconds * batch, seconds * batch / rate
+
+
+def processes_rate(processes: int, batch: int, seconds: float, seed: int) -> float:
+    """Simulated seconds per wall second of ``processes`` processes, each a batched environment
+    (what a multi-process collector gets on this machine)."""
+    with multiprocessing.get_context("spawn").Pool(processes) as pool:
+        t0 = time.perf_counter()
+        results = pool.map(_worker, [(batch, seconds, seed + k) for k in range(processes)])
+        wall = time.perf_counter() - t0
+    # Start-up (imports, trim table) is excluded: each worker reports its own stepping time.
+    return sum(sim for sim, _ in results) / max(w for _, w in results) if wall > 0 else 0.0
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--seconds", type=float, default=60.0, help="simulated seconds per measurement and aircraft")
-    parser.add_argument("--rounds", type=int, default=5)
-    parser.add_argument("--batch", type=int, default=8)
+    parser.add_argument("--seconds", type=float, default=100.0, help="simulated seconds per measurement and aircraft")
+    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--batch", type=int, nargs="+", default=[8, 32])
+    parser.add_argument("--processes", type=int, default=2, help="processes for the multi-process figure (0: skip)")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
     torch.set_num_threads(1)
-    single, batched = SolarUAVAttitudeEnv(1, seed=1), SolarUAVAttitudeEnv(args.batch, seed=2)
-    rates: dict[str, list[float]] = {"raw": [], "task": [], "torchrl_single": [], "torchrl_batched": []}
+    TrimTable.shared().fill()  # trims are cached per process; keep their first computation out of the timings
+    envs = {1: SolarUAVAttitudeEnv(1, seed=1), **{n: SolarUAVAttitudeEnv(n, seed=n) for n in args.batch}}
+    rates: dict[str, list[float]] = {"raw": [], "task_single": []}
+    for n in envs:
+        rates[f"torchrl_batch{n}"] = []
     for r in range(args.rounds):
         rates["raw"].append(raw_rate(args.seconds))
-        rates["task"].append(task_rate(args.seconds, r))
-        rates["torchrl_single"].append(torchrl_rate(single, args.seconds, r))
-        rates["torchrl_batched"].append(torchrl_rate(batched, args.seconds * args.batch, r))
-    result = {"sim_rate_hz": CoreConfig().sim_rate_hz, "batch": args.batch, "rounds": args.rounds}
+        rates["task_single"].append(task_rate(args.seconds, r))
+        for n, env in envs.items():
+            rates[f"torchrl_batch{n}"].append(torchrl_rate(env, args.seconds * n, r))
+    result = {"sim_rate_hz": CoreConfig().sim_rate_hz, "rounds": args.rounds}
     for name, values in rates.items():
         result[f"{name}_sim_s_per_wall_s"] = statistics.median(values)
         if name != "raw":
             result[f"{name}_over_raw"] = statistics.median(v / r for v, r in zip(values, rates["raw"]))
-    print(json.dumps(result, indent=2) if args.json else "\n".join(f"{k:34s} {v}" for k, v in result.items()))
+    if args.processes > 1:
+        n = args.batch[0]
+        rate = processes_rate(args.processes, n, args.seconds, 100)
+        key = f"torchrl_{args.processes}proc_batch{n}"
+        result[f"{key}_sim_s_per_wall_s"] = rate
+        result[f"{key}_over_raw"] = rate / result["raw_sim_s_per_wall_s"]
+    print(json.dumps(result, indent=2) if args.json else "\n".join(f"{k:40s} {v}" for k, v in result.items()))
 
 
 if __name__ == "__main__":

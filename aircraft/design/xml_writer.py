@@ -354,6 +354,10 @@ def rotor_speed_system(g: AircraftGeometry) -> str:
      rotor-speed loop with a {fmt(g.esc_time_constant_s)} s time constant, up to the motor's
      {fmt(g.motor_max_power_w)} W. All rotors share the one command. -->
 <system name="rotor_speed">
+  <!-- The reference's lag (1/s) and rate limit (rpm/s) are properties only so that a simulation
+       can be initialised quickly (jsbsim_env.sim.Simulation.settle_actuators); flight uses these values. -->
+  <property value="{fmt(1.0 / g.rotor_time_constant_s)}">fcs/rotor-lag-per-s</property>
+  <property value="{fmt(g.rotor_rate_limit_rpm_per_s)}">fcs/rotor-rate-limit-rpm_s</property>
   <channel name="rotor speed reference">
     <pure_gain name="fcs/rotor-speed-cmd-rpm">
       <input> fcs/throttle-cmd-norm[0] </input>
@@ -362,8 +366,8 @@ def rotor_speed_system(g: AircraftGeometry) -> str:
     </pure_gain>
     <actuator name="fcs/rotor-speed-ref-rpm">
       <input> fcs/rotor-speed-cmd-rpm </input>
-      <lag> {fmt(1.0 / g.rotor_time_constant_s)} </lag>
-      <rate_limit> {fmt(g.rotor_rate_limit_rpm_per_s)} </rate_limit>
+      <lag> fcs/rotor-lag-per-s </lag>
+      <rate_limit> fcs/rotor-rate-limit-rpm_s </rate_limit>
       <clipto> <min> 0 </min> <max> {fmt(g.max_rotor_speed_rpm)} </max> </clipto>
     </actuator>
   </channel>
