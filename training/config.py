@@ -1,0 +1,160 @@
+"""Typed training configuration with command-line overrides.
+
+Every field has a default from SPEC section 3 and a help line; ``TrainConfig.from_args`` turns
+them into ``--group.field value`` options (``--help`` lists them), and the full configuration is
+written as JSON with each run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+from dataclasses import dataclass, field, fields
+from typing import Any, get_type_hints
+
+
+def _f(default, help: str):
+    """A dataclass field with a help line."""
+    if isinstance(default, (list, dict)):
+        return field(default_factory=lambda: default, metadata={"help": help})
+    return field(default=default, metadata={"help": help})
+
+
+@dataclass
+class EnvSettings:
+    num_envs: int = _f(8, "aircraft simulated side by side in one process")
+    window: int = _f(8, "observation window the networks see (SPEC: 8)")
+    disturbances: bool = _f(True, "delay, noise, random interval, randomisation and turbulence (SPEC training setting)")
+
+
+@dataclass
+class CollectorSettings:
+    total_frames: int = _f(200_000, "environment steps to train for (SPEC: converged in about 0.2 M)")
+    frames_per_batch: int = _f(64, "environment steps collected between update rounds")
+    init_random_frames: int = _f(5_000, "steps with uniformly random actions before learning starts")
+
+
+@dataclass
+class BufferSettings:
+    capacity: int = _f(1_000_000, "replay capacity in transitions (SPEC: 1e6)")
+    batch_size: int = _f(256, "transitions per gradient step (SPEC: 256)")
+
+
+@dataclass
+class OptimSettings:
+    lr: float = _f(3e-4, "Adam learning rate of actor and critics (SPEC: 3e-4)")
+    gamma: float = _f(0.99, "discount (SPEC: 0.99)")
+    tau: float = _f(0.005, "soft target update rate per gradient step (SPEC: 0.005)")
+    alpha: float = _f(0.2, "fixed entropy temperature (SPEC: 0.2)")
+    updates_per_step: float = _f(1.0, "gradient steps per environment step (SPEC: 1)")
+
+
+@dataclass
+class NetworkSettings:
+    lstm_hidden: int = _f(64, "LSTM hidden units of the actor and of each critic (SPEC: 64)")
+    mlp_hidden: int = _f(256, "units of each of the two fully connected layers (SPEC: 256)")
+
+
+@dataclass
+class CapsSettings:
+    kappa_spatial: float = _f(2.0, "CAPS spatial smoothness weight (SPEC: 2)")
+    kappa_temporal: float = _f(1.0, "CAPS temporal smoothness weight (SPEC: 1)")
+    sigma_spatial: float = _f(0.05, "std of the observation perturbation for the spatial term (scaled units)")
+
+
+@dataclass
+class LogSettings:
+    run_root: str = _f("runs", "folder under which each run gets its own folder")
+    log_every_frames: int = _f(1_000, "environment steps between log rows")
+    eval_every_frames: int = _f(10_000, "environment steps between deterministic evaluations")
+    eval_episodes: int = _f(8, "fixed, seeded evaluation episodes")
+    eval_max_steps: int = _f(500, "interactions per evaluation episode")
+    checkpoint_every_frames: int = _f(10_000, "environment steps between checkpoints")
+    progress: bool = _f(True, "show a progress bar")
+
+
+@dataclass
+class TrainConfig:
+    seed: int = _f(0, "seed of everything: networks, exploration, environments")
+    device: str = _f("cpu", "torch device for the networks and updates (cuda when present)")
+    threads: int = _f(1, "torch CPU threads for the updates")
+    env: EnvSettings = field(default_factory=EnvSettings)
+    collector: CollectorSettings = field(default_factory=CollectorSettings)
+    buffer: BufferSettings = field(default_factory=BufferSettings)
+    optim: OptimSettings = field(default_factory=OptimSettings)
+    network: NetworkSettings = field(default_factory=NetworkSettings)
+    caps: CapsSettings = field(default_factory=CapsSettings)
+    log: LogSettings = field(default_factory=LogSettings)
+
+    # ------------------------------------------------------------------ (de)serialisation
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+    def to_json(self) -> str:
+        return json.dumps(self.to_dict(), indent=2, sort_keys=True)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> TrainConfig:
+        """Rebuild a configuration; unknown keys are an error (a config from another version)."""
+        kwargs = {}
+        hints = get_type_hints(cls)
+        for f in fields(cls):
+            if f.name not in data:
+                continue
+            value = data[f.name]
+            sub = hints[f.name]
+            if dataclasses.is_dataclass(sub):
+                unknown = set(value) - {g.name for g in fields(sub)}
+                if unknown:
+                    raise ValueError(f"unknown settings in {f.name}: {sorted(unknown)}")
+                value = sub(**value)
+            kwargs[f.name] = value
+        unknown = set(data) - {f.name for f in fields(cls)}
+        if unknown:
+            raise ValueError(f"unknown settings: {sorted(unknown)}")
+        return cls(**kwargs)
+
+    # ------------------------------------------------------------------ command line
+    @classmethod
+    def add_arguments(cls, parser: argparse.ArgumentParser) -> None:
+        """One ``--name`` or ``--group.name`` option per field."""
+        hints = get_type_hints(cls)
+        for f in fields(cls):
+            sub = hints[f.name]
+            if dataclasses.is_dataclass(sub):
+                sub_hints = get_type_hints(sub)
+                group = parser.add_argument_group(f.name)
+                for g in fields(sub):
+                    _add_option(group, f"{f.name}.{g.name}", sub_hints[g.name], g)
+            else:
+                _add_option(parser, f.name, sub, f)
+
+    @classmethod
+    def from_namespace(cls, ns: argparse.Namespace, base: TrainConfig | None = None) -> TrainConfig:
+        """The defaults (or ``base``) with every option given on the command line applied."""
+        data = (base or cls()).to_dict()
+        for key, value in vars(ns).items():
+            if value is None or not key.startswith("cfg:"):
+                continue
+            path = key[4:].split(".")
+            target = data
+            for part in path[:-1]:
+                target = target[part]
+            target[path[-1]] = value
+        return cls.from_dict(data)
+
+
+def _parse_bool(text: str) -> bool:
+    if text.lower() in ("1", "true", "yes", "on"):
+        return True
+    if text.lower() in ("0", "false", "no", "off"):
+        return False
+    raise argparse.ArgumentTypeError(f"expected true or false, got {text!r}")
+
+
+def _add_option(parser, name: str, typ, f: dataclasses.Field) -> None:
+    default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
+    kind = _parse_bool if typ is bool else typ
+    parser.add_argument(f"--{name}", dest=f"cfg:{name}", type=kind, default=None, metavar=typ.__name__.upper(),
+                        help=f"{f.metadata.get('help', '')} (default: {default})")
