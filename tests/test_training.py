@@ -1,0 +1,109 @@
+"""Training: a tiny run end to end, checkpoints, resumption, configuration."""
+
+from __future__ import annotations
+
+import csv
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import torch
+
+from training.checkpoint import CheckpointError, atomic_save, load_checkpoint
+from training.config import TrainConfig
+from training.trainer import Trainer
+
+SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
+
+
+def tiny_config(total_frames: int = 192) -> TrainConfig:
+    c = TrainConfig(seed=3)
+    c.env.num_envs = 4
+    c.collector.total_frames = total_frames
+    c.collector.frames_per_batch = 32
+    c.collector.init_random_frames = 64
+    c.buffer.capacity = 5000
+    c.buffer.batch_size = 16
+    c.network.lstm_hidden = 8
+    c.network.mlp_hidden = 16
+    c.log.log_every_frames = 32
+    c.log.eval_every_frames = 96
+    c.log.eval_episodes = 2
+    c.log.eval_max_steps = 10
+    c.log.checkpoint_every_frames = 96
+    c.log.progress = False
+    return c
+
+
+def _rows(run_dir: Path) -> list[dict]:
+    return list(csv.DictReader((run_dir / "progress.csv").open()))
+
+
+def test_tiny_run_writes_logs_checkpoint_and_policy(tmp_path):
+    run = tmp_path / "run"
+    Trainer(tiny_config(), run).train()
+    assert json.loads((run / "config.json").read_text())["network"]["lstm_hidden"] == 8
+    rows = _rows(run)
+    assert int(rows[-1]["frames"]) == 192
+    assert int(rows[-1]["updates"]) == 192 - 64  # one update per step after the random warm-up
+    assert any(r["eval_return_norm"] for r in rows)
+    assert any(p.name.startswith("events") for p in (run / "tb").iterdir())
+    data = load_checkpoint(run / "checkpoint.pt")
+    assert data["counters"]["frames"] == 192 and len(data["buffer"]["data"]) == 192
+    policy = torch.load(run / "best_policy.pt", weights_only=False)
+    assert policy["window"] == 8 and "actor" in policy
+
+
+def test_resume_continues_counting_with_the_buffer(tmp_path):
+    run = tmp_path / "run"
+    Trainer(tiny_config(96), run).train()
+    first = load_checkpoint(run / "checkpoint.pt")
+    resumed = Trainer(tiny_config(192), run, resume=True)
+    assert resumed.counters.frames == 96 and resumed.counters.updates == first["counters"]["updates"]
+    assert len(resumed.buffer) == 96
+    torch.testing.assert_close(resumed.buffer[:96]["action"], first["buffer"]["data"]["action"])
+    resumed.train()
+    frames = [int(r["frames"]) for r in _rows(run)]
+    assert frames == sorted(frames) and frames[-1] == 192
+    assert load_checkpoint(run / "checkpoint.pt")["counters"]["updates"] == 192 - 64
+
+
+def test_corrupt_or_mismatched_checkpoints_give_clear_errors(tmp_path):
+    run = tmp_path / "run"
+    Trainer(tiny_config(96), run).train()
+    other = tiny_config(96)
+    other.network.lstm_hidden = 16
+    with pytest.raises(CheckpointError, match="other settings"):
+        Trainer(other, run, resume=True)
+    (run / "checkpoint.pt").write_bytes(b"not a checkpoint")
+    with pytest.raises(CheckpointError, match="corrupt"):
+        Trainer(tiny_config(96), run, resume=True)
+    with pytest.raises(CheckpointError, match="no checkpoint"):
+        load_checkpoint(tmp_path / "missing.pt")
+    atomic_save({"something": 1}, tmp_path / "foreign.pt")
+    with pytest.raises(CheckpointError, match="unknown format"):
+        load_checkpoint(tmp_path / "foreign.pt")
+
+
+def test_config_round_trip_and_command_line():
+    import argparse
+
+    parser = argparse.ArgumentParser()
+    TrainConfig.add_arguments(parser)
+    ns = parser.parse_args(["--seed", "7", "--optim.lr", "0.001", "--env.disturbances", "false"])
+    c = TrainConfig.from_namespace(ns)
+    assert c.seed == 7 and c.optim.lr == 0.001 and c.env.disturbances is False
+    assert c.buffer.batch_size == 256 and c.caps.kappa_spatial == 2.0  # SPEC defaults kept
+    assert TrainConfig.from_dict(json.loads(c.to_json())) == c
+    with pytest.raises(ValueError, match="unknown settings"):
+        TrainConfig.from_dict({"optim": {"learning_rate": 1}})
+
+
+def test_train_script_help_lists_the_settings():
+    done = subprocess.run([sys.executable, str(SCRIPTS / "train_torchrl.py"), "--help"], capture_output=True,
+                          text=True, check=False, timeout=120)
+    assert done.returncode == 0
+    for option in ("--resume", "--seed", "--optim.lr", "--caps.kappa_spatial", "--collector.total_frames"):
+        assert option in done.stdout

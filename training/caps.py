@@ -1,0 +1,35 @@
+"""CAPS action-smoothness regularisation (Mysore et al., ICRA 2021), added to the SAC actor loss.
+
+    L_T = || mu(s_t) - mu(s_t+1) ||_2          temporal: consecutive observations, similar actions
+    L_S = || mu(s) - mu(s + eps) ||_2, eps ~ N(0, sigma_S^2)   spatial: nearby observations, similar actions
+    L_actor += kappa_T * mean(L_T) + kappa_S * mean(L_S)
+
+mu is the deterministic action (tanh of the Gaussian's mean). Observations are whole windows in
+the network's scaled units, so sigma_S is in those units too.
+"""
+
+from __future__ import annotations
+
+import torch
+from tensordict import TensorDictBase
+
+from training.networks import ActorNet
+
+
+def deterministic_action(actor_net: ActorNet, window: torch.Tensor) -> torch.Tensor:
+    loc, _ = actor_net(window)
+    return torch.tanh(loc)
+
+
+def caps_losses(actor_net: ActorNet, batch: TensorDictBase, sigma_spatial: float,
+                generator: torch.Generator | None = None) -> tuple[torch.Tensor, torch.Tensor]:
+    """Mean temporal and spatial smoothness penalties over a replay batch."""
+    obs = batch["observation"]
+    next_obs = batch["next", "observation"]
+    # One forward pass for the three inputs.
+    noise = torch.randn(obs.shape, generator=generator, device=obs.device, dtype=obs.dtype) * sigma_spatial
+    actions = deterministic_action(actor_net, torch.cat([obs, next_obs, obs + noise], dim=0))
+    a, a_next, a_near = actions.chunk(3, dim=0)
+    temporal = torch.linalg.vector_norm(a - a_next, dim=-1).mean()
+    spatial = torch.linalg.vector_norm(a - a_near, dim=-1).mean()
+    return temporal, spatial

@@ -1,0 +1,322 @@
+"""Recurrent SAC with CAPS on the solar-UAV attitude environment (SPEC section 3).
+
+A run folder holds ``config.json``, ``progress.csv``, TensorBoard events (``tb/``), ``checkpoint.pt``
+(everything needed to resume: networks, targets, optimisers, replay buffer, counters, random
+state) and ``best_policy.pt`` (the best deterministic policy by evaluation return).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+from tensordict import TensorDictBase
+from torchrl.collectors import Collector
+from torchrl.data import LazyTensorStorage, TensorDictReplayBuffer
+from torchrl.envs.utils import ExplorationType
+from torchrl.objectives import SACLoss, SoftUpdate
+
+from jsbsim_env.core import CoreConfig
+from jsbsim_env.task import TaskConfig
+from jsbsim_env.torchrl_env import make_env
+from training.caps import caps_losses
+from training.checkpoint import atomic_save, config_fingerprint, load_checkpoint, save_checkpoint
+from training.config import TrainConfig
+from training.evaluation import evaluate_policy
+from training.networks import make_actor, make_critic
+
+STORED_KEYS = ("observation", "action", ("next", "observation"), ("next", "reward"), ("next", "done"),
+               ("next", "terminated"))
+CSV_FIELDS = ("frames", "updates", "wall_s", "env_steps_per_s", "episodes", "episode_return", "episode_return_norm",
+              "episode_length", "loss_actor", "loss_qvalue", "caps_temporal", "caps_spatial", "eval_return_norm",
+              "eval_length", "eval_early_ends")
+
+
+def resume_fingerprint(config: TrainConfig) -> str:
+    """Settings that must be the same to resume: everything but logging, device, threads and length."""
+    data = config.to_dict()
+    data["collector"] = {k: v for k, v in data["collector"].items() if k != "total_frames"}
+    return config_fingerprint(data, ignore=("log", "device", "threads"))
+
+
+@dataclass
+class Counters:
+    frames: int = 0
+    updates: int = 0
+    episodes: int = 0
+    wall_s: float = 0.0
+    best_eval: float = -math.inf
+
+
+class Trainer:
+    """Builds the environment, networks, loss, buffer and collector of a run, and trains.
+
+    Args:
+        config: the run's settings.
+        run_dir: the run folder (created).
+        resume: continue from ``run_dir/checkpoint.pt``.
+    """
+
+    def __init__(self, config: TrainConfig, run_dir: Path | str, resume: bool = False):
+        self.config = c = config
+        self.run_dir = Path(run_dir)
+        self.run_dir.mkdir(parents=True, exist_ok=True)
+        if c.threads > 0:
+            torch.set_num_threads(c.threads)
+        torch.manual_seed(c.seed)
+        self.device = torch.device(c.device)
+        core = CoreConfig() if c.env.disturbances else CoreConfig.ideal()
+        self.task_config = TaskConfig(core=core)
+        self.env = make_env(c.env.num_envs, self.task_config, seed=c.seed, window=c.env.window)
+        self.actor = make_actor(c.network.lstm_hidden, c.network.mlp_hidden, self.env.action_spec).to(self.device)
+        critic = make_critic(c.network.lstm_hidden, c.network.mlp_hidden).to(self.device)
+        # nn.LSTM cannot run under vmap, which SACLoss uses for the twin critics by default.
+        self.loss = SACLoss(self.actor, critic, num_qvalue_nets=2, loss_function="l2", alpha_init=c.optim.alpha,
+                            fixed_alpha=True, action_spec=self.env.action_spec, deactivate_vmap=True)
+        self.loss.make_value_estimator(gamma=c.optim.gamma)
+        self.target_update = SoftUpdate(self.loss, tau=c.optim.tau)
+        self.actor_optim = torch.optim.Adam(self.loss.actor_network_params.flatten_keys().values(), lr=c.optim.lr)
+        self.critic_optim = torch.optim.Adam(self.loss.qvalue_network_params.flatten_keys().values(), lr=c.optim.lr)
+        self.buffer = TensorDictReplayBuffer(storage=LazyTensorStorage(c.buffer.capacity), batch_size=c.buffer.batch_size)
+        self.counters = Counters()
+        self.fingerprint = resume_fingerprint(c)
+        if resume:
+            self._load()
+        else:
+            (self.run_dir / "config.json").write_text(c.to_json())
+        self._episode_returns: list[float] = []
+        self._episode_lengths: list[int] = []
+        self._losses: dict[str, list[float]] = {}
+
+    # ------------------------------------------------------------------ checkpoints
+    @property
+    def checkpoint_path(self) -> Path:
+        return self.run_dir / "checkpoint.pt"
+
+    def save(self) -> None:
+        """Write everything a resumed run needs, atomically."""
+        save_checkpoint(self.checkpoint_path, {
+            "config": self.config.to_dict(),
+            "loss": self.loss.state_dict(),
+            "actor_optim": self.actor_optim.state_dict(),
+            "critic_optim": self.critic_optim.state_dict(),
+            "buffer": buffer_contents(self.buffer),
+            "counters": self.counters.__dict__,
+            "torch_rng": torch.get_rng_state(),
+            "env_episodes": self.env.base_env._episodes.copy(),
+        }, self.fingerprint)
+
+    def _load(self) -> None:
+        data = load_checkpoint(self.checkpoint_path, self.fingerprint,
+                               required=("loss", "actor_optim", "critic_optim", "buffer", "counters"))
+        self.loss.load_state_dict(data["loss"])
+        self.actor_optim.load_state_dict(data["actor_optim"])
+        self.critic_optim.load_state_dict(data["critic_optim"])
+        restore_buffer(self.buffer, data["buffer"])
+        self.counters = Counters(**data["counters"])
+        torch.set_rng_state(data["torch_rng"])
+        # Resumed environments start new episodes where the run's episode counters stood.
+        self.env.base_env._episodes[:] = data["env_episodes"]
+        self._trim_progress_log()
+
+    def _trim_progress_log(self) -> None:
+        """Drop log rows written after the checkpoint by a run that was then killed."""
+        path = self.run_dir / "progress.csv"
+        if not path.exists():
+            return
+        rows = [r for r in csv.DictReader(path.open()) if int(r["frames"]) <= self.counters.frames]
+        tmp = path.with_suffix(".csv.tmp")
+        with tmp.open("w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=CSV_FIELDS)
+            w.writeheader()
+            w.writerows(rows)
+        tmp.replace(path)
+
+    def save_policy(self, path: Path, evaluation: dict) -> None:
+        """The deterministic policy and what it needs at run time, for ``training.policy``."""
+        atomic_save({
+            "actor": self.actor.state_dict(),
+            "network": self.config.network.__dict__,
+            "window": self.config.env.window,
+            "frames": self.counters.frames,
+            "seed": self.config.seed,
+            "evaluation": evaluation,
+        }, path)
+
+    # ------------------------------------------------------------------ training
+    def _update(self, batch: TensorDictBase) -> None:
+        c = self.config
+        batch = batch.to(self.device)
+        losses = self.loss(batch)
+        temporal, spatial = caps_losses(self.actor.module[0].module, batch, c.caps.sigma_spatial)
+        actor_loss = losses["loss_actor"] + c.caps.kappa_temporal * temporal + c.caps.kappa_spatial * spatial
+        # One backward pass: SACLoss detaches the critics inside the actor loss, so each optimiser
+        # sees only its own loss's gradient.
+        self.critic_optim.zero_grad(set_to_none=True)
+        self.actor_optim.zero_grad(set_to_none=True)
+        (losses["loss_qvalue"] + actor_loss).backward()
+        self.critic_optim.step()
+        self.actor_optim.step()
+        self.target_update.step()
+        self.counters.updates += 1
+        for key, value in (("loss_actor", losses["loss_actor"]), ("loss_qvalue", losses["loss_qvalue"]),
+                           ("caps_temporal", temporal), ("caps_spatial", spatial)):
+            self._losses.setdefault(key, []).append(float(value.detach()))
+
+    def _record_episodes(self, data: TensorDictBase) -> None:
+        done = data["next", "done"].squeeze(-1)
+        if done.any():
+            self._episode_returns += data["next", "episode_reward"][done].flatten().tolist()
+            self._episode_lengths += data["next", "step_count"][done].flatten().tolist()
+            self.counters.episodes += int(done.sum())
+
+    def train(self) -> dict:
+        """Train to ``collector.total_frames``; returns the last log row."""
+        c = self.config
+        remaining = c.collector.total_frames - self.counters.frames
+        if remaining <= 0:
+            return {}
+        frames_per_batch = c.collector.frames_per_batch - c.collector.frames_per_batch % c.env.num_envs
+        collector = Collector(
+            self.env, self.actor, frames_per_batch=frames_per_batch, total_frames=remaining,
+            init_random_frames=max(0, c.collector.init_random_frames - self.counters.frames),
+            exploration_type=ExplorationType.RANDOM,
+            # The LSTMs read a window of observations and keep no state between steps.
+            auto_register_policy_transforms=False,
+        )
+        writer, csv_file, csv_writer = self._open_logs()
+        bar = self._progress_bar()
+        session_start, start_frames = time.perf_counter(), self.counters.frames
+        wall_before = self.counters.wall_s  # time spent by earlier sessions of a resumed run
+        next_log = _next_multiple(self.counters.frames, c.log.log_every_frames)
+        next_eval = _next_multiple(self.counters.frames, c.log.eval_every_frames)
+        next_ckpt = _next_multiple(self.counters.frames, c.log.checkpoint_every_frames)
+        row: dict = {}
+        update_debt = 0.0
+        try:
+            for data in collector:
+                data = data.reshape(-1)
+                self._record_episodes(data)
+                self.buffer.extend(data.select(*STORED_KEYS).cpu())
+                n = data.numel()
+                before = self.counters.frames
+                self.counters.frames += n
+                # Updates per step collected after the random warm-up.
+                learn_frames = self.counters.frames - max(before, c.collector.init_random_frames)
+                if learn_frames > 0:
+                    update_debt += learn_frames * c.optim.updates_per_step
+                    while update_debt >= 1.0:
+                        self._update(self.buffer.sample())
+                        update_debt -= 1.0
+                collector.update_policy_weights_()
+                self.counters.wall_s = wall_before + time.perf_counter() - session_start
+                if bar is not None:
+                    bar.update(n)
+                evaluation = None
+                if self.counters.frames >= next_eval:
+                    evaluation = self.evaluate()
+                    next_eval = _next_multiple(self.counters.frames, c.log.eval_every_frames)
+                if self.counters.frames >= next_log or evaluation is not None:
+                    row = self._log_row(start_frames, session_start, evaluation)
+                    csv_writer.writerow(row)
+                    csv_file.flush()
+                    for key, value in row.items():
+                        if key not in ("frames", "updates") and value != "" and value is not None:
+                            writer.add_scalar(key, value, self.counters.frames)
+                    writer.flush()
+                    if bar is not None:
+                        bar.set_postfix(sps=f"{row['env_steps_per_s']:.0f}", ret=row["episode_return_norm"],
+                                        eval=row["eval_return_norm"])
+                    next_log = _next_multiple(self.counters.frames, c.log.log_every_frames)
+                if self.counters.frames >= next_ckpt or self.counters.frames >= c.collector.total_frames:
+                    self.save()
+                    next_ckpt = _next_multiple(self.counters.frames, c.log.checkpoint_every_frames)
+        finally:
+            collector.shutdown()
+            writer.close()
+            csv_file.close()
+            if bar is not None:
+                bar.close()
+        return row
+
+    def evaluate(self) -> dict:
+        """Deterministic evaluation on the fixed seeded episode set; keeps the best policy."""
+        c = self.config
+        result = evaluate_policy(self.actor, self.task_config, episodes=c.log.eval_episodes,
+                                 max_steps=c.log.eval_max_steps, window=c.env.window)
+        if result["return_norm"] > self.counters.best_eval:
+            self.counters.best_eval = result["return_norm"]
+            self.save_policy(self.run_dir / "best_policy.pt", {**result, "frames": self.counters.frames})
+        return result
+
+    # ------------------------------------------------------------------ logging
+    def _open_logs(self):
+        from torch.utils.tensorboard import SummaryWriter
+
+        writer = SummaryWriter(str(self.run_dir / "tb"), purge_step=self.counters.frames or None)
+        path = self.run_dir / "progress.csv"
+        new = not path.exists()
+        csv_file = path.open("a", newline="")
+        csv_writer = csv.DictWriter(csv_file, fieldnames=CSV_FIELDS)
+        if new:
+            csv_writer.writeheader()
+        return writer, csv_file, csv_writer
+
+    def _progress_bar(self):
+        if not self.config.log.progress:
+            return None
+        from tqdm import tqdm
+
+        return tqdm(total=self.config.collector.total_frames, initial=self.counters.frames, unit="step",
+                    dynamic_ncols=True, desc="train")
+
+    def _log_row(self, start_frames: int, session_start: float, evaluation: dict | None) -> dict:
+        session_s = max(time.perf_counter() - session_start, 1e-9)
+        recent = self._episode_returns[-20:]
+        lengths = self._episode_lengths[-20:]
+        max_steps = self.task_config.core.max_steps
+        row = {
+            "frames": self.counters.frames, "updates": self.counters.updates, "wall_s": round(self.counters.wall_s, 2),
+            "env_steps_per_s": (self.counters.frames - start_frames) / session_s,
+            "episodes": self.counters.episodes,
+            "episode_return": float(np.mean(recent)) if recent else "",
+            "episode_return_norm": float(np.mean(recent)) / max_steps if recent else "",
+            "episode_length": float(np.mean(lengths)) if lengths else "",
+            **{k: float(np.mean(v)) for k, v in self._losses.items()},
+            "eval_return_norm": evaluation["return_norm"] if evaluation else "",
+            "eval_length": evaluation["length"] if evaluation else "",
+            "eval_early_ends": evaluation["early_ends"] if evaluation else "",
+        }
+        self._losses.clear()
+        return {k: row.get(k, "") for k in CSV_FIELDS}
+
+
+def buffer_contents(buffer: TensorDictReplayBuffer) -> dict:
+    """The filled part of the replay buffer, in storage order, and its write cursor (the full
+    storage is preallocated to capacity and would make every checkpoint gigabytes)."""
+    n = len(buffer)
+    return {"data": buffer[:n].clone() if n else None, "writer": buffer._writer.state_dict()}
+
+
+def restore_buffer(buffer: TensorDictReplayBuffer, contents: dict) -> None:
+    """Refill an empty buffer with ``buffer_contents``: same layout, same next write position."""
+    if contents["data"] is not None:
+        buffer.extend(contents["data"])
+    buffer._writer.load_state_dict(contents["writer"])
+
+
+def _next_multiple(value: int, step: int) -> int:
+    return (value // step + 1) * step
+
+
+def run_summary(run_dir: Path) -> dict:
+    """The saved configuration and the last progress row of a run."""
+    run_dir = Path(run_dir)
+    rows = list(csv.DictReader((run_dir / "progress.csv").open()))
+    return {"config": json.loads((run_dir / "config.json").read_text()), "last": rows[-1] if rows else {}}
