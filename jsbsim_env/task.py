@@ -181,6 +181,14 @@ class AttitudeTaskBatch:
         self._goal_lists[i] = self.goals[i].tolist()
         self._next_goal_change_min_s[i] = float(self.next_goal_change_s[i].min())
 
+    def set_goal(self, i: int, goal) -> None:
+        """Give aircraft ``i`` this goal and hold it (its random schedule stops until the next reset);
+        for scripted references such as doublets."""
+        self.goals[i] = goal
+        self._goal_lists[i] = self.goals[i].tolist()
+        self.next_goal_change_s[i] = math.inf
+        self._next_goal_change_min_s[i] = math.inf
+
     # ------------------------------------------------------------------ observations
     def _observation(self, i: int) -> list[float]:
         """Scaled network observation of aircraft ``i`` (measured state and goal), as a list."""

@@ -61,6 +61,7 @@ class CapsSettings:
     kappa_spatial: float = _f(2.0, "CAPS spatial smoothness weight (SPEC: 2)")
     kappa_temporal: float = _f(1.0, "CAPS temporal smoothness weight (SPEC: 1)")
     sigma_spatial: float = _f(0.05, "std of the observation perturbation for the spatial term (scaled units)")
+    batch_size: int = _f(64, "replay samples (of each update's batch) the CAPS terms are averaged over")
 
 
 @dataclass

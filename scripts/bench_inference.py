@@ -1,0 +1,53 @@
+"""Per-step latency of the controller runtime on one CPU thread (median and p99).
+
+One step is what the aircraft's computer does each control interval: scale the measurement, push it
+into the 8-step window, run the network, map the action to actuator commands.
+
+    python scripts/bench_inference.py --json [--policy PATH]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from training.policy import PolicyRuntime
+
+
+def latencies_us(runtime: PolicyRuntime, steps: int, rng: np.random.Generator) -> np.ndarray:
+    measurements = rng.normal(size=(steps, 13)) * 0.01 + np.array([10000, 0, 0, 0, 0, 0, 10, 0, 0, 0, 0, 0, 0.3])
+    goal = np.array([0.0, 0.0, 10.0])
+    out = np.empty(steps)
+    runtime.reset()
+    for k in range(steps):
+        t0 = time.perf_counter()
+        runtime.act(measurements[k], goal)
+        out[k] = time.perf_counter() - t0
+    return out * 1e6
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--policy", type=Path, help="policy file (default: the shipped controller)")
+    parser.add_argument("--steps", type=int, default=5000)
+    parser.add_argument("--json", action="store_true")
+    args = parser.parse_args()
+    torch.set_num_threads(1)
+    rng = np.random.default_rng(0)
+    result = {"steps": args.steps}
+    for backend in ("onnx", "torch"):
+        runtime = PolicyRuntime(args.policy, backend=backend)
+        latencies_us(runtime, 200, rng)  # warm-up
+        lat = latencies_us(runtime, args.steps if backend == "onnx" else args.steps // 5, rng)
+        result[f"{backend}_median_us"] = float(np.median(lat))
+        result[f"{backend}_p99_us"] = float(np.percentile(lat, 99))
+    print(json.dumps(result, indent=2) if args.json else "\n".join(f"{k:20s} {v:.1f}" for k, v in result.items()))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,71 @@
+"""Training speed: time of one SAC update (actor, both critics, targets, CAPS) and env steps per
+second of collection, with the default configuration.
+
+    python scripts/bench_train.py --json [--device cuda] [--threads 2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import tempfile
+import time
+
+import torch
+from torchrl.envs.utils import RandomPolicy
+
+from training.config import TrainConfig
+from training.trainer import STORED_KEYS, Trainer
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--device", default="cpu")
+    parser.add_argument("--threads", type=int, default=0, help="torch threads (0: torch's default)")
+    parser.add_argument("--updates", type=int, default=30)
+    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--json", action="store_true")
+    args = parser.parse_args()
+    config = TrainConfig(device=args.device, threads=args.threads)
+    config.buffer.capacity = 20_000
+    config.log.progress = False
+    with tempfile.TemporaryDirectory() as tmp:
+        trainer = Trainer(config, tmp)
+        env = trainer.env
+        # Collection: the actor picks actions, the batched environment steps (TorchRL rollout).
+        collect_rates = []
+        data = None
+        for _ in range(args.rounds):
+            t0 = time.perf_counter()
+            data = env.rollout(125, trainer.actor, break_when_any_done=False)
+            collect_rates.append(data.numel() / (time.perf_counter() - t0))
+        trainer.buffer.extend(data.reshape(-1).select(*STORED_KEYS))
+        random = env.rollout(250, RandomPolicy(env.action_spec), break_when_any_done=False)
+        trainer.buffer.extend(random.reshape(-1).select(*STORED_KEYS))
+        update_ms = []
+        for _ in range(args.rounds):
+            for _ in range(3):
+                trainer._update(trainer.buffer.sample())
+            if trainer.device.type == "cuda":
+                torch.cuda.synchronize()
+            t0 = time.perf_counter()
+            for _ in range(args.updates):
+                trainer._update(trainer.buffer.sample())
+            if trainer.device.type == "cuda":
+                torch.cuda.synchronize()
+            update_ms.append((time.perf_counter() - t0) / args.updates * 1e3)
+    result = {
+        "device": args.device, "threads": torch.get_num_threads(), "num_envs": config.env.num_envs,
+        "batch_size": config.buffer.batch_size,
+        "update_ms": statistics.median(update_ms),
+        "collect_env_steps_per_s": statistics.median(collect_rates),
+    }
+    # One update per environment step (SPEC): the default run's time per step and in total.
+    per_step_s = result["update_ms"] / 1e3 + 1.0 / result["collect_env_steps_per_s"]
+    result["default_run_hours_estimate"] = per_step_s * config.collector.total_frames / 3600
+    print(json.dumps(result, indent=2) if args.json else "\n".join(f"{k:28s} {v}" for k, v in result.items()))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,35 @@
+"""Fly the shipped controller (or ``--policy PATH``) on the fixed evaluation suite and print the metrics.
+
+    python scripts/evaluate.py --json                   # metrics as JSON
+    python scripts/evaluate.py --plots results/eval     # and the Fig. 9 time histories
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import torch
+
+from training.evaluate import evaluate
+from training.policy import PolicyRuntime
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--policy", type=Path, help="policy file (default: the shipped controller)")
+    parser.add_argument("--episodes", type=int, default=50, help="seeded training-style episodes")
+    parser.add_argument("--plots", type=Path, help="folder for the doublet plots")
+    parser.add_argument("--backend", choices=("onnx", "torch"), default="onnx")
+    parser.add_argument("--json", action="store_true")
+    args = parser.parse_args()
+    torch.set_num_threads(1)
+    runtime = PolicyRuntime(args.policy, backend=args.backend)
+    results = evaluate(runtime, episodes=args.episodes, plot_dir=args.plots, progress=not args.json)
+    results["policy"] = {k: v for k, v in runtime.meta.items() if k != "network"}
+    print(json.dumps(results, indent=2, default=float))
+
+
+if __name__ == "__main__":
+    main()

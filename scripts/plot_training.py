@@ -1,0 +1,53 @@
+"""SPEC Fig. 8: episode length and normalised return against environment steps, mean and spread
+over the runs given (one per seed), from their ``progress.csv``.
+
+    python scripts/plot_training.py runs/sac_seed0 runs/sac_seed1 runs/sac_seed2 --out fig8.png
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+from pathlib import Path
+
+import numpy as np
+
+
+def load_curve(run_dir: Path, key: str) -> tuple[np.ndarray, np.ndarray]:
+    rows = [r for r in csv.DictReader((run_dir / "progress.csv").open()) if r[key] != ""]
+    return np.array([float(r["frames"]) for r in rows]), np.array([float(r[key]) for r in rows])
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("runs", type=Path, nargs="+")
+    parser.add_argument("--out", type=Path, default=Path("fig8_training.png"))
+    args = parser.parse_args()
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 3, figsize=(14, 4))
+    panels = (("episode_length", "episode length"), ("episode_return_norm", "normalised return (training)"),
+              ("eval_return_norm", "normalised return (deterministic evaluation)"))
+    for ax, (key, label) in zip(axes, panels):
+        curves = [load_curve(r, key) for r in args.runs]
+        curves = [c for c in curves if c[0].size]
+        if not curves:
+            continue
+        grid = np.linspace(0, min(c[0][-1] for c in curves), 100)
+        values = np.array([np.interp(grid, x, y) for x, y in curves])
+        ax.plot(grid, values.mean(axis=0), label=f"mean of {len(curves)} runs")
+        ax.fill_between(grid, values.min(axis=0), values.max(axis=0), alpha=0.3, label="min-max")
+        ax.set_xlabel("environment steps")
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+        ax.legend()
+    fig.tight_layout()
+    fig.savefig(args.out, dpi=120)
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()

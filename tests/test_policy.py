@@ -1,0 +1,82 @@
+"""The deployed controller: loading, ONNX export against PyTorch, the runtime's window and mapping."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from jsbsim_env.task import OBS_SIZE, action_to_command
+from training.config import TrainConfig
+from training.policy import PolicyFileError, PolicyRuntime, export_onnx, load_policy
+from training.trainer import Trainer
+
+
+@pytest.fixture(scope="module")
+def policy_file(tmp_path_factory):
+    """A policy file written by the trainer from freshly initialised networks."""
+    run = tmp_path_factory.mktemp("run")
+    c = TrainConfig(seed=1)
+    c.env.num_envs = 1
+    c.buffer.capacity = 10
+    c.log.progress = False
+    trainer = Trainer(c, run)
+    path = run / "policy.pt"
+    trainer.save_policy(path, {"return_norm": 0.0})
+    return path, trainer
+
+
+def test_loaded_policy_is_the_trainers_deterministic_actor(policy_file):
+    path, trainer = policy_file
+    actor, meta = load_policy(path)
+    assert meta["window"] == 8 and meta["seed"] == 1
+    window = torch.randn(5, 8, OBS_SIZE)
+    loc, _ = trainer.actor.module[0].module(window)
+    torch.testing.assert_close(actor(window), torch.tanh(loc))
+
+
+def test_onnx_export_gives_the_pytorch_actions(policy_file, tmp_path):
+    path, _ = policy_file
+    actor, _ = load_policy(path)
+    onnx_path = export_onnx(actor, tmp_path / "policy.onnx")
+    import onnxruntime as ort
+
+    session = ort.InferenceSession(str(onnx_path), providers=["CPUExecutionProvider"])
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        window = rng.normal(size=(1, 8, OBS_SIZE)).astype(np.float32)
+        expected = actor(torch.from_numpy(window)).detach().numpy()
+        np.testing.assert_allclose(session.run(None, {"window": window})[0], expected, atol=1e-5)
+
+
+def test_runtime_window_matches_catframes_and_backends_agree(policy_file, tmp_path):
+    path, _ = policy_file
+    runtime_onnx = PolicyRuntime(path, backend="onnx")
+    runtime_torch = PolicyRuntime(path, backend="torch")
+    obs = [np.full(OBS_SIZE, float(k), np.float32) for k in range(10)]
+    w = runtime_onnx.push(obs[0])
+    assert np.all(w == 0.0) and w.shape == (8, OBS_SIZE)  # a new episode repeats its first observation
+    for k in range(1, 10):
+        w = runtime_onnx.push(obs[k])
+    np.testing.assert_array_equal(w[:, 0], np.arange(2, 10))  # oldest first
+    runtime_onnx.reset()
+    for k in range(10):
+        a, b = runtime_onnx.act_scaled(obs[k]), runtime_torch.act_scaled(obs[k])
+        np.testing.assert_allclose(a, b, atol=1e-5)
+    command = runtime_torch.act(np.zeros(13), np.array([0.0, 0.0, 10.0]))
+    assert command.shape == (4,) and -30 <= command[0] <= 30 and 0 <= command[3] <= 1
+    runtime_torch.reset()
+    a = runtime_torch.action(runtime_torch.push(np.zeros(OBS_SIZE)))
+    runtime_torch.reset()
+    np.testing.assert_allclose(runtime_torch.act(np.array([10000.0, 0, 0, 0, 0, 0, 10.0, 0, 0, 0, 0, 0, 0.5]),
+                                                 np.array([0.0, 0.0, 10.0])), action_to_command(a), atol=1e-6)
+
+
+def test_broken_policy_file_gives_a_clear_error(tmp_path):
+    bad = tmp_path / "bad.pt"
+    bad.write_bytes(b"garbage")
+    with pytest.raises(PolicyFileError, match="not a usable policy"):
+        load_policy(bad)
+    torch.save({"actor": {}, "window": 8}, tmp_path / "incomplete.pt")
+    with pytest.raises(PolicyFileError):
+        load_policy(tmp_path / "incomplete.pt")

@@ -1,0 +1,132 @@
+"""The trained controller at run time: loading, ONNX export and a runtime without TorchRL.
+
+``PolicyRuntime`` is what flies the aircraft after training (evaluation, the loop bench): it keeps
+the 8-step observation window exactly as training's ``CatFrames`` does (a new episode's window is
+its first observation repeated), scales observations and maps actions to actuator commands, and
+runs either the PyTorch network or its ONNX export (onnxruntime, one thread).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+import torch
+from torch import nn
+
+from jsbsim_env.task import OBS_SIZE, action_to_command, scale_observation
+from training.networks import ActorNet
+
+SHIPPED_POLICY = "solar_uav_policy.pt"  # in the training package, with its ONNX export beside it
+
+
+class PolicyFileError(RuntimeError):
+    """A policy file that cannot be read or lacks what the runtime needs."""
+
+
+def shipped_policy_path() -> Path:
+    """The controller that ships with the package."""
+    return Path(str(resources.files("training") / "shipped" / SHIPPED_POLICY))
+
+
+class DeterministicActor(nn.Module):
+    """Observation window (..., window, 16) -> action in [-1, 1]^4: tanh of the Gaussian's mean."""
+
+    def __init__(self, net: ActorNet):
+        super().__init__()
+        self.net = net
+
+    def forward(self, window: torch.Tensor) -> torch.Tensor:
+        loc, _ = self.net(window)
+        return torch.tanh(loc)
+
+
+def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
+    """The deterministic actor and the metadata saved with it (``Trainer.save_policy``)."""
+    path = Path(path)
+    try:
+        data = torch.load(path, map_location="cpu", weights_only=False)
+        net = ActorNet(data["network"]["lstm_hidden"], data["network"]["mlp_hidden"])
+        prefix = "module.0.module."
+        state = {k[len(prefix):]: v for k, v in data["actor"].items() if k.startswith(prefix)}
+        net.load_state_dict(state)
+    except Exception as err:  # unpickling, missing keys and shape mismatches all mean the same here
+        raise PolicyFileError(f"{path} is not a usable policy file: {err}") from err
+    actor = DeterministicActor(net).eval()
+    meta = {k: v for k, v in data.items() if k != "actor"}
+    return actor, meta
+
+
+def export_onnx(actor: DeterministicActor, path: Path | str, window: int = 8) -> Path:
+    """Write the deterministic actor as ONNX (batch of one window, fixed shape)."""
+    path = Path(path)
+    example = torch.zeros(1, window, OBS_SIZE)
+    torch.onnx.export(actor, (example,), str(path), input_names=["window"], output_names=["action"],
+                      dynamo=False, opset_version=17)
+    return path
+
+
+class PolicyRuntime:
+    """Keeps the observation window and turns measurements into actuator commands.
+
+    Args:
+        policy_path: a policy file (``load_policy``); the shipped one by default.
+        backend: ``"onnx"`` (onnxruntime, the ``.onnx`` file beside the policy, exported if
+            missing) or ``"torch"``.
+    """
+
+    def __init__(self, policy_path: Path | str | None = None, backend: str = "onnx"):
+        path = Path(policy_path) if policy_path is not None else shipped_policy_path()
+        self.actor, self.meta = load_policy(path)
+        self.window = int(self.meta.get("window", 8))
+        self.backend = backend
+        self._frames: deque[np.ndarray] = deque(maxlen=self.window)
+        if backend == "onnx":
+            import onnxruntime as ort
+
+            onnx_path = path.with_suffix(".onnx")
+            if not onnx_path.exists():
+                export_onnx(self.actor, onnx_path, self.window)
+            options = ort.SessionOptions()
+            options.intra_op_num_threads = 1
+            options.inter_op_num_threads = 1
+            self._session = ort.InferenceSession(str(onnx_path), options, providers=["CPUExecutionProvider"])
+        elif backend != "torch":
+            raise ValueError(f"backend must be 'onnx' or 'torch', got {backend!r}")
+
+    def reset(self) -> None:
+        """Forget the window (a new episode)."""
+        self._frames.clear()
+
+    def push(self, observation: np.ndarray) -> np.ndarray:
+        """Add one scaled observation; returns the window (window, 16), oldest first."""
+        obs = np.asarray(observation, dtype=np.float32).reshape(OBS_SIZE)
+        if not self._frames:
+            self._frames.extend([obs] * self.window)  # as CatFrames pads a new episode
+        else:
+            self._frames.append(obs)
+        return np.stack(self._frames)
+
+    def action(self, window: np.ndarray) -> np.ndarray:
+        """Action in [-1, 1]^4 for one window."""
+        x = np.asarray(window, dtype=np.float32)[None]
+        if self.backend == "onnx":
+            return self._session.run(None, {"window": x})[0][0]
+        with torch.no_grad():
+            return self.actor(torch.from_numpy(x))[0].numpy()
+
+    def act(self, measurement: np.ndarray, goal: np.ndarray) -> np.ndarray:
+        """Actuator command (aileron, elevator, rudder in deg, throttle) for a measured state
+        (``core.STATE_NAMES``) and goal (roll, pitch in rad, EAS in m/s)."""
+        a = self.action(self.push(scale_observation(np.asarray(measurement), np.asarray(goal))))
+        return action_to_command(np.clip(a.astype(np.float64), -1.0, 1.0))
+
+    def act_scaled(self, observation: np.ndarray) -> np.ndarray:
+        """Action in [-1, 1]^4 for an already scaled observation (as the environments give)."""
+        return self.action(self.push(observation))
+
+
+__all__ = ["DeterministicActor", "PolicyFileError", "PolicyRuntime", "export_onnx", "load_policy",
+           "shipped_policy_path"]
