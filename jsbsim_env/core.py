@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from aircraft.design.xml_writer import INERTIA_SCALE, TERMS
 from jsbsim_env import disturbances as dist
 from jsbsim_env.sim import (
     CONTROL_INPUTS,
@@ -49,6 +50,7 @@ COMMAND_LOW = np.array([-SURFACE_LIMITS_DEG["aileron"], -SURFACE_LIMITS_DEG["ele
                         0.0])
 COMMAND_HIGH = -COMMAND_LOW + np.array([0.0, 0.0, 0.0, 1.0])
 MAX_ROTOR_RPM = 1800.0
+SCALED_TERMS = (*TERMS, INERTIA_SCALE)  # every aero/scale/<term> property of the aircraft
 DEG_TO_RAD = math.pi / 180.0
 
 
@@ -168,7 +170,9 @@ class FlightCore:
         interval = float(rng.uniform(*cfg.control_interval_s))
         delay = float(rng.uniform(*cfg.delay_s))
         perturb = rng.uniform(-1.0, 1.0, size=7)
-        scales = dist.draw_scales(parameters or cfg.parameters, rng)
+        drawn_scales = dist.draw_scales(dist.RANDOMISED, rng)  # drawn even when a fixed set overrides it
+        chosen = parameters or cfg.parameters
+        scales = drawn_scales if chosen == dist.RANDOMISED else dist.draw_scales(chosen, rng)
         turbulence_seed = int(rng.integers(2**31 - 1))
         jsbsim_seed = int(rng.integers(2**31 - 1))
         noise_seed = int(rng.integers(2**63))
@@ -181,7 +185,7 @@ class FlightCore:
         self._load()
         sim, f = self.sim, self.sim.fdm
         f["simulation/randomseed"] = jsbsim_seed
-        for term in self._scale_terms():
+        for term in SCALED_TERMS:
             f[f"aero/scale/{term}"] = scales.get(term, 1.0)
         f["fcs/backlash-width-deg"] = cfg.backlash_deg
         for s in self._set_gust + self._set_gust_rate:
@@ -218,12 +222,6 @@ class FlightCore:
         self.applied_command = trim_command.copy()
         self._apply_gusts()
         return self._measure()
-
-    @staticmethod
-    def _scale_terms():
-        from aircraft.design.xml_writer import INERTIA_SCALE, TERMS
-
-        return (*TERMS, INERTIA_SCALE)
 
     # ------------------------------------------------------------------ stepping
     def check_command(self, command: np.ndarray) -> np.ndarray:
