@@ -139,6 +139,40 @@ def linearise(sim: Simulation, trim: TrimResult) -> tuple[np.ndarray, np.ndarray
     return blocks[0], blocks[1]
 
 
+CONTROLS = ("aileron_deg", "elevator_deg", "rudder_deg", "throttle")
+# Central-difference steps of the controls: 1 deg on the surfaces, 0.02 of throttle.
+CONTROL_PERTURBATION = (1.0, 1.0, 1.0, 0.02)
+
+
+def control_derivatives(sim: Simulation, trim: TrimResult) -> tuple[np.ndarray, np.ndarray]:
+    """Input matrices about ``trim``: the derivatives of the longitudinal and lateral states (same
+    order as ``linearise``) per unit of each control in ``CONTROLS`` (deg, or throttle fraction).
+
+    Each control is held at trim plus or minus its step until the actuators (and the rotors, for
+    the throttle) have settled, then the state derivatives are read at the trimmed state. Leaves
+    the aircraft at the trimmed state with the trimmed controls.
+    """
+    x0 = {"V": trim.airspeed_tas_mps, "alpha": math.radians(trim.alpha_deg), "theta": math.radians(trim.pitch_deg),
+          "q": 0.0, "beta": 0.0, "phi": 0.0, "p": 0.0, "r": 0.0}
+    base = np.array([0.0, trim.elevator_deg, 0.0, trim.throttle])
+    columns = []
+    for j, h in enumerate(CONTROL_PERTURBATION):
+        derivs = []
+        for sign in (1.0, -1.0):
+            u = base.copy()
+            u[j] += sign * h
+            sim.set_controls(*u)
+            sim.settle_actuators()
+            derivs.append(_derivatives(sim, trim, x0))
+        columns.append({k: (derivs[0][k] - derivs[1][k]) / (2.0 * h) for k in x0})
+    sim.set_controls(*base)
+    sim.settle_actuators()
+    _derivatives(sim, trim, x0)
+    b_long = np.array([[col[n] for col in columns] for n in LONGITUDINAL_STATES])
+    b_lat = np.array([[col[n] for col in columns] for n in LATERAL_STATES])
+    return b_long, b_lat
+
+
 def linear_modes(sim: Simulation, trim: TrimResult) -> dict[str, dict]:
     """Name the linear modes about ``trim``; the aircraft must be in that trim (just after ``Simulation.trim``)."""
     a_long, a_lat = linearise(sim, trim)
@@ -170,4 +204,5 @@ def jsbsim_linearisation(sim: Simulation) -> tuple[np.ndarray, np.ndarray]:
     return out[0], out[1]
 
 
-__all__ = ["LinearisationError", "Mode", "classify", "jsbsim_linearisation", "linear_modes", "linearise"]
+__all__ = ["CONTROLS", "LinearisationError", "Mode", "classify", "control_derivatives", "jsbsim_linearisation",
+           "linear_modes", "linearise"]

@@ -134,3 +134,22 @@ def test_linearisation_agrees_with_jsbsim_fglinearization():
     for a, b in zip(classify(*ours), classify(*theirs)):
         if a.name in ("short_period", "roll"):
             assert a.eigenvalue == pytest.approx(b.eigenvalue, rel=0.01), a.name
+
+
+def test_control_derivatives_have_the_sign_conventions_of_spec_section_1():
+    from jsbsim_env.modes import control_derivatives
+
+    sim = Simulation()
+    trim = sim.trim(10000.0, 10.0)
+    b_long, b_lat = control_derivatives(sim, trim)
+    # Positive elevator (trailing edge down) pitches nose down; positive aileron (right aileron
+    # down) rolls left; positive rudder (trailing edge left) yaws left; throttle accelerates.
+    assert b_long[3, 1] < 0 and b_lat[2, 0] < 0 and b_lat[3, 2] < 0 and b_long[0, 3] > 0
+    # The aileron's roll acceleration per degree is its moment per degree over Ixx.
+    ixx = np.asarray(sim.fdm.get_mass_balance().get_J())[0, 0] * 1.3558179483314
+    from jsbsim_env.effectiveness import effectiveness_at
+
+    moment = effectiveness_at(sim, 10000.0, 10.0)["aileron_moment_nm_per_deg"]
+    assert b_lat[2, 0] == pytest.approx(moment / ixx, rel=0.05)
+    # The aircraft is left trimmed.
+    assert abs(sim["accelerations/qdot-rad_sec2"]) < 1e-3
