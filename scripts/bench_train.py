@@ -38,7 +38,8 @@ def main() -> None:
         data = None
         for _ in range(args.rounds):
             t0 = time.perf_counter()
-            data = env.rollout(125, trainer.actor, break_when_any_done=False)
+            with torch.no_grad():
+                data = env.rollout(125, trainer.actor, break_when_any_done=False)
             collect_rates.append(data.numel() / (time.perf_counter() - t0))
         trainer.buffer.extend(data.reshape(-1).select(*STORED_KEYS))
         random = env.rollout(250, RandomPolicy(env.action_spec), break_when_any_done=False)
