@@ -54,6 +54,7 @@ class OptimSettings:
 class NetworkSettings:
     lstm_hidden: int = _f(64, "LSTM hidden units of the actor and of each critic (SPEC: 64)")
     mlp_hidden: int = _f(256, "units of each of the two fully connected layers (SPEC: 256)")
+    initial_std: float = _f(1.0, "the actor's standard deviation (before tanh) at initialisation (TorchRL: 1)")
 
 
 @dataclass

@@ -39,12 +39,13 @@ class ActorNet(nn.Module):
     """Observation window -> (loc, scale) of the pre-tanh Gaussian."""
 
     def __init__(self, lstm_hidden: int = 64, mlp_hidden: int = 256, obs_size: int = OBS_SIZE,
-                 action_size: int = ACTION_SIZE):
+                 action_size: int = ACTION_SIZE, initial_std: float = 1.0):
         super().__init__()
         self.encoder = LSTMEncoder(obs_size, lstm_hidden)
         self.head = _mlp(lstm_hidden, mlp_hidden, 2 * action_size)
-        # Scale through a biased softplus bounded away from zero (TorchRL's usual choice for SAC).
-        self.params = NormalParamExtractor(scale_mapping="biased_softplus_1.0", scale_lb=1e-4)
+        # Scale through a softplus biased so that a zero input gives ``initial_std``, bounded away
+        # from zero (TorchRL's usual choice for SAC).
+        self.params = NormalParamExtractor(scale_mapping=f"biased_softplus_{initial_std:g}", scale_lb=1e-4)
 
     def forward(self, window: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         return self.params(self.head(self.encoder(window)))
@@ -63,9 +64,11 @@ class CriticNet(nn.Module):
         return self.head(torch.cat([self.encoder(window), action], dim=-1))
 
 
-def make_actor(lstm_hidden: int = 64, mlp_hidden: int = 256, action_spec=None) -> ProbabilisticActor:
+def make_actor(lstm_hidden: int = 64, mlp_hidden: int = 256, action_spec=None,
+               initial_std: float = 1.0) -> ProbabilisticActor:
     """The SAC actor: ``observation`` -> ``action`` (in [-1, 1]) with ``loc``/``scale``."""
-    module = TensorDictModule(ActorNet(lstm_hidden, mlp_hidden), in_keys=["observation"], out_keys=["loc", "scale"])
+    module = TensorDictModule(ActorNet(lstm_hidden, mlp_hidden, initial_std=initial_std), in_keys=["observation"],
+                              out_keys=["loc", "scale"])
     return ProbabilisticActor(
         module, in_keys=["loc", "scale"], spec=action_spec, distribution_class=TanhNormal,
         distribution_kwargs={"low": -1.0, "high": 1.0}, return_log_prob=False,

@@ -48,7 +48,8 @@ def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
     path = Path(path)
     try:
         data = torch.load(path, map_location="cpu", weights_only=False)
-        net = ActorNet(data["network"]["lstm_hidden"], data["network"]["mlp_hidden"])
+        net = ActorNet(data["network"]["lstm_hidden"], data["network"]["mlp_hidden"],
+                       initial_std=data["network"].get("initial_std", 1.0))
         prefix = "module.0.module."
         state = {k[len(prefix):]: v for k, v in data["actor"].items() if k.startswith(prefix)}
         net.load_state_dict(state)

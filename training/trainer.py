@@ -74,7 +74,8 @@ class Trainer:
         core = CoreConfig() if c.env.disturbances else CoreConfig.ideal()
         self.task_config = TaskConfig(core=core)
         self.env = make_env(c.env.num_envs, self.task_config, seed=c.seed, window=c.env.window)
-        self.actor = make_actor(c.network.lstm_hidden, c.network.mlp_hidden, self.env.action_spec).to(self.device)
+        self.actor = make_actor(c.network.lstm_hidden, c.network.mlp_hidden, self.env.action_spec,
+                                c.network.initial_std).to(self.device)
         critic = make_critic(c.network.lstm_hidden, c.network.mlp_hidden).to(self.device)
         # nn.LSTM cannot run under vmap, which SACLoss uses for the twin critics by default.
         self.loss = SACLoss(self.actor, critic, num_qvalue_nets=2, loss_function="l2", alpha_init=c.optim.alpha,
