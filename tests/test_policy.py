@@ -80,3 +80,11 @@ def test_broken_policy_file_gives_a_clear_error(tmp_path):
     torch.save({"actor": {}, "window": 8}, tmp_path / "incomplete.pt")
     with pytest.raises(PolicyFileError):
         load_policy(tmp_path / "incomplete.pt")
+
+
+def test_missing_shipped_controller_is_a_clear_error(monkeypatch, tmp_path):
+    from training import policy
+
+    monkeypatch.setattr(policy, "shipped_policy_path", lambda: tmp_path / "absent.pt")
+    with pytest.raises(PolicyFileError, match="no trained controller ships"):
+        PolicyRuntime()

@@ -80,6 +80,9 @@ class PolicyRuntime:
 
     def __init__(self, policy_path: Path | str | None = None, backend: str = "onnx"):
         path = Path(policy_path) if policy_path is not None else shipped_policy_path()
+        if policy_path is None and not path.exists():
+            raise PolicyFileError("no trained controller ships with this version of the package; pass a policy file "
+                                  "(for example runs/<name>/best_policy.pt)")
         self.actor, self.meta = load_policy(path)
         self.window = int(self.meta.get("window", 8))
         self.backend = backend
