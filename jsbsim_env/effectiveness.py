@@ -21,7 +21,7 @@ import math
 import numpy as np
 
 from jsbsim_env.modes import linearise
-from jsbsim_env.sim import LBF_TO_N, Simulation, TrimResult
+from jsbsim_env.sim import Simulation, TrimResult
 
 FT_LBF_TO_N_M = 1.3558179483314
 SURFACE_AXES = {"aileron": ("l", 0), "elevator": ("m", 1), "rudder": ("n", 2)}
@@ -30,14 +30,10 @@ DEFLECTION_DEG = 1.0
 
 def _moments_at(sim: Simulation, trim: TrimResult, surfaces_deg: dict[str, float], throttle: float) -> np.ndarray:
     """Aerodynamic moments (N m, body roll/pitch/yaw) and total thrust (N) with the given controls."""
-    sim.set_initial_conditions(trim.altitude_m, trim.airspeed_tas_mps, alpha_deg=trim.alpha_deg)
-    sim.set_controls(surfaces_deg["aileron"], surfaces_deg["elevator"], surfaces_deg["rudder"], throttle)
-    sim.settle_actuators()
-    sim.set_initial_conditions(trim.altitude_m, trim.airspeed_tas_mps, alpha_deg=trim.alpha_deg)
-    f = sim.fdm
-    moments = [f[f"moments/{a}-aero-lbsft"] * FT_LBF_TO_N_M for a in "lmn"]
-    thrust = sum(f[f"propulsion/engine[{i}]/thrust-lbs"] for i in range(sim.engine_count)) * LBF_TO_N
-    return np.array([*moments, thrust])
+    sim.place_with_controls(trim.altitude_m, trim.airspeed_tas_mps, trim.alpha_deg, surfaces_deg["aileron"],
+                            surfaces_deg["elevator"], surfaces_deg["rudder"], throttle)
+    moments = [sim[f"moments/{a}-aero-lbsft"] * FT_LBF_TO_N_M for a in "lmn"]
+    return np.array([*moments, sim.thrust_n()])
 
 
 def effectiveness_at(sim: Simulation, altitude_m: float, airspeed_eas_mps: float = 10.0) -> dict[str, float]:

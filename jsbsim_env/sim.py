@@ -187,14 +187,25 @@ class Simulation:
                 return
             rpm_prev = rpm
 
+    def place_with_controls(self, altitude_m: float, tas_mps: float, alpha_deg: float, aileron_deg: float,
+                            elevator_deg: float, rudder_deg: float, throttle: float) -> None:
+        """Wings-level, level flight at the given condition with the actuators and rotors settled
+        at the given controls (JSBSim's initial-condition pass keeps actuator states, so they are
+        brought to the controls first, then the aircraft is placed again)."""
+        self.set_initial_conditions(altitude_m, tas_mps, alpha_deg=alpha_deg)
+        self.set_controls(aileron_deg, elevator_deg, rudder_deg, throttle)
+        self.settle_actuators()
+        self.set_initial_conditions(altitude_m, tas_mps, alpha_deg=alpha_deg)
+
+    def thrust_n(self) -> float:
+        """Total thrust of all propellers."""
+        return float(sum(self.fdm[f"propulsion/engine[{i}]/thrust-lbs"] for i in range(self.engine_count)) * LBF_TO_N)
+
     # ------------------------------------------------------------------ trim
     def _residuals(self, altitude_m, tas_mps, x) -> np.ndarray:
         """Body accelerations (m/s², rad/s²) of steady level flight at alpha, elevator, throttle = x."""
         alpha_deg, elevator_deg, throttle = x
-        self.set_initial_conditions(altitude_m, tas_mps, alpha_deg=alpha_deg)
-        self.set_controls(0.0, elevator_deg, 0.0, throttle)
-        self.settle_actuators()
-        self.set_initial_conditions(altitude_m, tas_mps, alpha_deg=alpha_deg)
+        self.place_with_controls(altitude_m, tas_mps, alpha_deg, 0.0, elevator_deg, 0.0, throttle)
         f = self.fdm
         return np.array([f["accelerations/udot-ft_sec2"] * FT_TO_M, f["accelerations/wdot-ft_sec2"] * FT_TO_M,
                          f["accelerations/qdot-rad_sec2"]])
@@ -257,6 +268,6 @@ class Simulation:
             altitude_m=altitude_m, airspeed_eas_mps=airspeed_eas_mps, airspeed_tas_mps=tas_mps,
             alpha_deg=float(x[0]), pitch_deg=float(f["attitude/theta-deg"]), elevator_deg=float(x[1]),
             throttle=float(x[2]), rotor_rpm=float(f["propulsion/engine[0]/propeller-rpm"]),
-            thrust_n=float(sum(f[f"propulsion/engine[{i}]/thrust-lbs"] for i in range(self.engine_count)) * LBF_TO_N),
+            thrust_n=self.thrust_n(),
             residual_accel_mps2=float(np.max(np.abs(r[:2]))), residual_ang_accel_radps2=float(abs(r[2])),
         )

@@ -8,7 +8,6 @@ state) and ``best_policy.pt`` (the best deterministic policy by evaluation retur
 from __future__ import annotations
 
 import csv
-import json
 import math
 import time
 from dataclasses import dataclass
@@ -317,10 +316,3 @@ def restore_buffer(buffer: TensorDictReplayBuffer, contents: dict) -> None:
 
 def _next_multiple(value: int, step: int) -> int:
     return (value // step + 1) * step
-
-
-def run_summary(run_dir: Path) -> dict:
-    """The saved configuration and the last progress row of a run."""
-    run_dir = Path(run_dir)
-    rows = list(csv.DictReader((run_dir / "progress.csv").open()))
-    return {"config": json.loads((run_dir / "config.json").read_text()), "last": rows[-1] if rows else {}}
