@@ -67,6 +67,11 @@ def scale_observation(state: np.ndarray, goal: np.ndarray) -> np.ndarray:
 
 
 REWARD_TERMS = ("penalty_roll", "penalty_pitch", "penalty_airspeed", "penalty_beta")
+# The state elements the reward depends on (``core.STATE_NAMES`` order): roll, pitch, V_eas, sideslip.
+ACHIEVED_INDEX = (1, 2, 6, 8)
+# Errors at which each penalty of Eq. 22 saturates (rad, rad, m/s): beyond them a goal error
+# no longer changes the reward.
+PENALTY_SATURATION = (math.radians(1.5), math.radians(1.8), 1.5)
 
 
 def reward_terms(state, goal) -> list[float]:
@@ -77,6 +82,16 @@ def reward_terms(state, goal) -> list[float]:
     p_speed = min(abs(state[6] - goal[2]) / 5.0, 0.3)
     p_beta = min(abs(state[8]) * _DEG / 30.0, 0.1)
     return [p_roll, p_pitch, p_speed, p_beta, 1.0 - (p_roll + p_pitch + p_speed + p_beta)]
+
+
+def reward_from_achieved(achieved, goal):
+    """SPEC Eq. 22 on arrays (numpy or torch): ``achieved`` (..., 4) in ``ACHIEVED_INDEX`` order and
+    ``goal`` (..., 3) -> reward (...). The vectorised twin of ``reward_terms``."""
+    p_roll = (abs(achieved[..., 0] - goal[..., 0]) * (_DEG / 5.0)).clip(max=0.3)
+    p_pitch = (abs(achieved[..., 1] - goal[..., 1]) * (_DEG / 6.0)).clip(max=0.3)
+    p_speed = (abs(achieved[..., 2] - goal[..., 2]) / 5.0).clip(max=0.3)
+    p_beta = (abs(achieved[..., 3]) * (_DEG / 30.0)).clip(max=0.1)
+    return 1.0 - (p_roll + p_pitch + p_speed + p_beta)
 
 
 @dataclass(frozen=True)

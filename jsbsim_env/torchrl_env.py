@@ -14,7 +14,7 @@ from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import Compose, EnvBase, RewardSum, StepCounter, TransformedEnv
 from torchrl.envs.transforms import CatFrames, UnsqueezeTransform
 
-from jsbsim_env.task import ACTION_SIZE, OBS_SIZE, REWARD_TERMS, AttitudeTaskBatch, TaskConfig
+from jsbsim_env.task import ACHIEVED_INDEX, ACTION_SIZE, OBS_SIZE, REWARD_TERMS, AttitudeTaskBatch, TaskConfig
 
 OBSERVATION_WINDOW = 8  # SPEC section 3: the policy sees the last 8 observations
 
@@ -30,7 +30,9 @@ class SolarUAVAttitudeEnv(EnvBase):
     Keys: ``observation`` (num_envs, 16) float32, ``action`` (num_envs, 4) in [-1, 1],
     ``reward`` (num_envs, 1), ``done``/``terminated``/``truncated`` (num_envs, 1), and
     ``reward_terms`` (num_envs, 4): the penalties of ``task.REWARD_TERMS``, with
-    ``reward = 1 - reward_terms.sum(-1)``.
+    ``reward = 1 - reward_terms.sum(-1)``, and ``achieved`` (num_envs, 4): the true roll, pitch
+    (rad), V_eas (m/s) and sideslip (rad) the reward was computed from (``task.ACHIEVED_INDEX``),
+    which lets a learner recompute the reward for another goal.
     """
 
     batch_locked = True
@@ -46,6 +48,7 @@ class SolarUAVAttitudeEnv(EnvBase):
         self.observation_spec = Composite(
             observation=Unbounded(shape=(*n, OBS_SIZE), dtype=torch.float32),
             reward_terms=Unbounded(shape=(*n, len(REWARD_TERMS)), dtype=torch.float32),
+            achieved=Unbounded(shape=(*n, len(ACHIEVED_INDEX)), dtype=torch.float32),
             shape=n,
         )
         self.action_spec = Bounded(low=-1.0, high=1.0, shape=(*n, ACTION_SIZE), dtype=torch.float32)
@@ -58,6 +61,7 @@ class SolarUAVAttitudeEnv(EnvBase):
         )
         self._obs = np.zeros((num_envs, OBS_SIZE), dtype=np.float32)
         self._terms = np.zeros((num_envs, len(REWARD_TERMS)), dtype=np.float32)
+        self._achieved = np.zeros((num_envs, len(ACHIEVED_INDEX)), dtype=np.float32)
         self.last_codes = np.zeros(num_envs, dtype=np.int64)  # core.TERMINATION_CAUSES of the last step
 
     def _set_seed(self, seed: int | None) -> None:
@@ -74,6 +78,7 @@ class SolarUAVAttitudeEnv(EnvBase):
             self._obs[i] = self.batch.reset_one(i, episode_seed(self._base_seed, i, int(self._episodes[i])))
             self._episodes[i] += 1
             self._terms[i] = 0.0
+            self._achieved[i] = [self.batch.states[i][k] for k in ACHIEVED_INDEX]
         out = self._output(np.zeros(self.num_envs), np.zeros(self.num_envs, bool), np.zeros(self.num_envs, bool))
         del out["reward"]
         return out
@@ -82,6 +87,8 @@ class SolarUAVAttitudeEnv(EnvBase):
         obs, terms, terminated, truncated, codes = self.batch.step(tensordict["action"].detach().cpu().numpy())
         self._obs[:] = obs
         self._terms[:] = terms[:, :4]
+        # A terminated aircraft's state can be non-finite; its reward is 0 whatever the goal.
+        self._achieved[:] = np.nan_to_num([[s[k] for k in ACHIEVED_INDEX] for s in self.batch.states])
         self.last_codes = codes
         return self._output(terms[:, 4], terminated, truncated)
 
@@ -93,6 +100,7 @@ class SolarUAVAttitudeEnv(EnvBase):
         # and saves a third of TorchRL's per-step overhead; on the env's device, TorchRL skips a copy.
         return TensorDict._new_unsafe(
             {"observation": torch.from_numpy(self._obs.copy()), "reward_terms": torch.from_numpy(self._terms.copy()),
+             "achieved": torch.from_numpy(self._achieved.copy()),
              "reward": torch.from_numpy(np.asarray(rewards, dtype=np.float32)).reshape(n, 1),
              "terminated": terminated_t, "truncated": truncated_t, "done": terminated_t | truncated_t},
             batch_size=self.batch_size, device=self.device,

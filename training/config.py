@@ -39,6 +39,10 @@ class CollectorSettings:
 class BufferSettings:
     capacity: int = _f(1_000_000, "replay capacity in transitions (SPEC: 1e6)")
     batch_size: int = _f(256, "transitions per gradient step (SPEC: 256)")
+    relabel_fraction: float = _f(0.5, "share of each batch given goals near the state reached, with the reward "
+                                      "recomputed (training.relabel; 0 trains as the paper)")
+    relabel_spread: float = _f(2.0, "relabelled goal offset from the state reached, in multiples of each "
+                                    "channel's reward saturation error")
 
 
 @dataclass

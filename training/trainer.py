@@ -29,9 +29,10 @@ from training.checkpoint import atomic_save, config_fingerprint, load_checkpoint
 from training.config import TrainConfig
 from training.evaluation import evaluate_policy
 from training.networks import make_actor, make_critic
+from training.relabel import relabel_goals
 
 STORED_KEYS = ("observation", "action", ("next", "observation"), ("next", "reward"), ("next", "done"),
-               ("next", "terminated"))
+               ("next", "terminated"), ("next", "achieved"))
 CSV_FIELDS = ("frames", "updates", "wall_s", "env_steps_per_s", "episodes", "episode_return", "episode_return_norm",
               "episode_length", "loss_actor", "loss_qvalue", "caps_temporal", "caps_spatial", "eval_return_norm",
               "eval_length", "eval_early_ends")
@@ -152,7 +153,7 @@ class Trainer:
     # ------------------------------------------------------------------ training
     def _update(self, batch: TensorDictBase) -> None:
         c = self.config
-        batch = batch.to(self.device)
+        batch = relabel_goals(batch.to(self.device), c.buffer.relabel_fraction, c.buffer.relabel_spread)
         losses = self.loss(batch)
         # CAPS on a random part of the batch: an unbiased estimate of the same means at a quarter
         # of the cost (the actor's LSTM on three windows per sample is a third of the update).

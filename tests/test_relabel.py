@@ -1,0 +1,85 @@
+"""Goal relabelling: the stored state reproduces the environment's reward, and relabelled samples
+get consistent goals and rewards."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from jsbsim_env.core import N_STATE
+from jsbsim_env.task import (ACHIEVED_INDEX, GOAL_HIGH, GOAL_LOW, OBS_OFFSET, OBS_SCALE, PENALTY_SATURATION,
+                             reward_from_achieved, reward_terms)
+from jsbsim_env.torchrl_env import make_env
+from training.relabel import relabel_goals
+
+
+@pytest.fixture(scope="module")
+def rollout():
+    env = make_env(num_envs=2, seed=5)
+    torch.manual_seed(0)
+    return env.rollout(60, break_when_any_done=False).reshape(-1)
+
+
+def _goals(windows: torch.Tensor) -> np.ndarray:
+    """Unscaled goals of the newest frame of each window."""
+    return windows[:, -1, -3:].double().numpy() * OBS_SCALE[-3:] + OBS_OFFSET[-3:]
+
+
+def test_vectorised_reward_matches_the_per_aircraft_one():
+    rng = np.random.default_rng(1)
+    for _ in range(200):
+        state = rng.normal(0, 0.05, N_STATE)
+        state[6] = rng.uniform(6, 14)
+        goal = rng.uniform(GOAL_LOW, GOAL_HIGH)
+        achieved = state[list(ACHIEVED_INDEX)]
+        assert reward_from_achieved(achieved, goal) == pytest.approx(reward_terms(state, goal)[4], abs=1e-12)
+        as_torch = reward_from_achieved(torch.tensor(achieved), torch.tensor(goal))
+        assert float(as_torch) == pytest.approx(reward_terms(state, goal)[4], abs=1e-9)
+
+
+def test_achieved_state_reproduces_the_environment_reward(rollout):
+    # The reward of a step uses the goal the policy saw before it (the newest frame of the window).
+    alive = ~rollout["next", "terminated"].reshape(-1)
+    expected = reward_from_achieved(rollout["next", "achieved"].double().numpy(), _goals(rollout["observation"]))
+    got = rollout["next", "reward"].reshape(-1).double().numpy()
+    np.testing.assert_allclose(got[alive.numpy()], expected[alive.numpy()], atol=1e-5)
+
+
+def test_no_relabelling_leaves_the_batch(rollout):
+    assert relabel_goals(rollout, 0.0, 2.0) is rollout
+    with pytest.raises(ValueError, match="fraction"):
+        relabel_goals(rollout, 1.5, 2.0)
+
+
+def test_relabelled_goals_and_rewards_are_consistent(rollout):
+    before = rollout.clone()
+    out = relabel_goals(rollout, 1.0, 2.0, generator=torch.Generator().manual_seed(0))
+    assert (rollout == before).all(), "the input batch must not change"
+    goals = _goals(out["observation"])
+    # One goal held over both windows, every frame.
+    for key in ("observation", ("next", "observation")):
+        frames = out[key][..., -3:]
+        assert torch.equal(frames, frames[:, -1:].expand_as(frames))
+    assert torch.equal(out["observation"][:, -1, -3:], out["next", "observation"][:, -1, -3:])
+    # The states themselves are untouched.
+    assert torch.equal(out["observation"][..., :-3], rollout["observation"][..., :-3])
+    # Within the spread of the state reached, inside the goal ranges.
+    achieved = rollout["next", "achieved"].double().numpy()[:, :3]
+    spread = 2.0 * np.array(PENALTY_SATURATION)
+    assert np.all(np.abs(goals - achieved) <= spread + 1e-5)
+    assert np.all(goals >= GOAL_LOW - 1e-6) and np.all(goals <= GOAL_HIGH + 1e-6)
+    # The rewards are Eq. 22 for the new goals, and well spread over its sloped part.
+    reward = out["next", "reward"].reshape(-1).double().numpy()
+    np.testing.assert_allclose(reward, reward_from_achieved(rollout["next", "achieved"].double().numpy(), goals),
+                               atol=1e-5)
+    assert reward.std() > 0.05
+
+
+def test_a_fraction_is_relabelled(rollout):
+    big = torch.cat([rollout] * 20)
+    out = relabel_goals(big, 0.3, 2.0, generator=torch.Generator().manual_seed(0))
+    changed = (out["observation"][:, -1, -3:] != big["observation"][:, -1, -3:]).any(-1).float().mean()
+    assert math.isclose(float(changed), 0.3, abs_tol=0.05)

@@ -1,0 +1,66 @@
+"""Goal relabelling of replayed transitions (in the spirit of hindsight experience replay).
+
+The Eq. 22 reward saturates once an error passes 1.5 deg of roll, 1.8 deg of pitch or 1.5 m/s
+of airspeed, and goals are drawn across +-5 deg, +-10 deg and 8-12 m/s, so early in training
+almost every transition sits on the flat part of the reward for roll and pitch: the critics see
+no difference between near and far, and the actor learns to hold airspeed while ignoring the
+attitude goals. The aircraft's motion does not depend on the goal and the reward is a known
+function of the true state reached and the goal, so any transition is also a valid transition
+for any other goal held over it. Relabelling a share of each batch with goals drawn close to the
+state actually reached puts those samples where the reward has a slope.
+
+For a relabelled sample the goal columns of every frame of both observation windows are
+replaced by the new goal (held over the window), and the reward is recomputed from the
+transition's ``achieved`` state (``task.reward_from_achieved``). Terminated transitions keep
+their goal: their reward is the episode's last and their state may not be finite.
+"""
+
+from __future__ import annotations
+
+import torch
+from tensordict import TensorDictBase
+
+from jsbsim_env.task import GOAL_HIGH, GOAL_LOW, OBS_OFFSET, OBS_SCALE, PENALTY_SATURATION, reward_from_achieved
+
+_GOAL_COLUMNS = slice(-3, None)  # the goals are the observation's last three elements
+_GOAL_OFFSET = torch.tensor(OBS_OFFSET[_GOAL_COLUMNS], dtype=torch.float32)
+_GOAL_SCALE = torch.tensor(OBS_SCALE[_GOAL_COLUMNS], dtype=torch.float32)
+_GOAL_LOW = torch.tensor(GOAL_LOW, dtype=torch.float32)
+_GOAL_HIGH = torch.tensor(GOAL_HIGH, dtype=torch.float32)
+_SATURATION = torch.tensor(PENALTY_SATURATION, dtype=torch.float32)
+
+
+def relabel_goals(batch: TensorDictBase, fraction: float, spread: float,
+                  generator: torch.Generator | None = None) -> TensorDictBase:
+    """A copy of ``batch`` with goals and rewards of a random ``fraction`` of its samples relabelled.
+
+    Args:
+        batch: replay samples with ``observation`` and ``("next", "observation")`` windows
+            (B, window, 16), ``("next", "achieved")`` (B, 4), ``("next", "reward")`` (B, 1) and
+            ``("next", "terminated")`` (B, 1).
+        fraction: share of the samples to relabel, in [0, 1].
+        spread: new goal = achieved state + an offset drawn uniformly within +- ``spread`` times
+            each channel's saturation error, clipped to the goal ranges.
+        generator: random stream for the choice and the offsets.
+    """
+    if not 0.0 <= fraction <= 1.0:
+        raise ValueError(f"relabel fraction must lie in [0, 1], got {fraction}")
+    if fraction == 0.0:
+        return batch
+    n = batch.shape[0]
+    device = batch["observation"].device
+    chosen = torch.rand(n, generator=generator) < fraction
+    chosen &= ~batch["next", "terminated"].reshape(n).cpu()
+    index = chosen.nonzero().squeeze(-1).to(device)
+    if index.numel() == 0:
+        return batch
+    achieved = batch["next", "achieved"][index].float()
+    offset = (torch.rand(index.numel(), 3, generator=generator) * 2.0 - 1.0) * (spread * _SATURATION)
+    goal = torch.minimum(torch.maximum(achieved[:, :3] + offset.to(device), _GOAL_LOW.to(device)),
+                         _GOAL_HIGH.to(device))
+    scaled = ((goal - _GOAL_OFFSET.to(device)) / _GOAL_SCALE.to(device)).unsqueeze(-2)
+    out = batch.clone()
+    for key in ("observation", ("next", "observation")):
+        out[key][index, :, _GOAL_COLUMNS] = scaled.to(out[key].dtype)
+    out["next", "reward"][index] = reward_from_achieved(achieved, goal).unsqueeze(-1).to(out["next", "reward"].dtype)
+    return out
