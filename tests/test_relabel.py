@@ -10,8 +10,16 @@ import pytest
 import torch
 
 from jsbsim_env.core import N_STATE
-from jsbsim_env.task import (ACHIEVED_INDEX, GOAL_HIGH, GOAL_LOW, OBS_OFFSET, OBS_SCALE, PENALTY_SATURATION,
-                             reward_from_achieved, reward_terms)
+from jsbsim_env.task import (
+    ACHIEVED_INDEX,
+    GOAL_HIGH,
+    GOAL_LOW,
+    OBS_OFFSET,
+    OBS_SCALE,
+    PENALTY_SATURATION,
+    reward_from_achieved,
+    reward_terms,
+)
 from jsbsim_env.torchrl_env import make_env
 from training.relabel import relabel_goals
 
