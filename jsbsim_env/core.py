@@ -52,6 +52,7 @@ COMMAND_HIGH = -COMMAND_LOW + np.array([0.0, 0.0, 0.0, 1.0])
 MAX_ROTOR_RPM = 1800.0
 SCALED_TERMS = (*TERMS, INERTIA_SCALE)  # every aero/scale/<term> property of the aircraft
 DEG_TO_RAD = math.pi / 180.0
+EARTH_RADIUS_M = 6_371_000.0  # mean radius: local north/east over a route of tens of km
 
 
 @dataclass(frozen=True)
@@ -108,6 +109,22 @@ class EpisodeSetup:
     trim_command: np.ndarray  # aileron, elevator, rudder (deg), throttle
 
 
+@dataclass(frozen=True)
+class Navigation:
+    """Local position (north and east of the episode's start, m), altitude, ground velocity
+    (NED, m/s), true airspeed, V_tas / V_eas and heading."""
+
+    north_m: float
+    east_m: float
+    altitude_m: float
+    v_north_mps: float
+    v_east_mps: float
+    v_down_mps: float
+    tas_mps: float
+    eas_to_tas: float
+    heading_rad: float
+
+
 class CommandError(ValueError):
     """A command that is not finite or not inside the actuator ranges."""
 
@@ -130,6 +147,9 @@ class FlightCore:
         self._load()
         self.setup: EpisodeSetup | None = None
         self.rng = np.random.default_rng()
+        # Multiplies the turbulence series: missions switch it between 0 and 1 by route leg.
+        self.turbulence_gain = 1.0
+        self._nav_origin: tuple[float, float] | None = None  # latitude, longitude of the episode start
 
     def _load(self) -> None:
         """A fresh JSBSim instance, with direct accessors to the properties used every step."""
@@ -157,10 +177,12 @@ class FlightCore:
 
     # ------------------------------------------------------------------ episode start
     def reset(self, seed: int | None = None, altitude_m: float | None = None,
-              airspeed_eas_mps: float | None = None, parameters: str | None = None) -> np.ndarray:
+              airspeed_eas_mps: float | None = None, parameters: str | None = None,
+              heading_deg: float | None = None) -> np.ndarray:
         """Start an episode: draw its setting, trim, perturb. Returns the first measurement.
 
-        ``altitude_m``, ``airspeed_eas_mps`` and ``parameters`` override the draws (evaluation).
+        ``altitude_m``, ``airspeed_eas_mps``, ``parameters`` and ``heading_deg`` override the
+        draws (evaluation, missions).
         """
         cfg = self.config
         self.rng = rng = np.random.default_rng(seed)
@@ -178,6 +200,7 @@ class FlightCore:
         noise_seed = int(rng.integers(2**63))
         alt = alt if altitude_m is None else float(altitude_m)
         eas = eas if airspeed_eas_mps is None else float(airspeed_eas_mps)
+        heading = float(perturb[6] * 180.0) if heading_deg is None else float(heading_deg)
 
         # A fresh JSBSim instance per episode (about 10 ms): JSBSim's initial-condition setters
         # keep quantities from the previous state, which leaves round-off differences between
@@ -205,7 +228,7 @@ class FlightCore:
         eas0 = eas + cfg.perturb_eas_mps * perturb[5]
         tas0 = eas0 / math.sqrt(rho_ratio)
         sim.set_initial_conditions(alt, tas0, alpha_deg=trim.alpha_deg, pitch_deg=trim.alpha_deg + math.degrees(att[1]),
-                                   roll_deg=math.degrees(att[0]), heading_deg=float(perturb[6] * 180.0),
+                                   roll_deg=math.degrees(att[0]), heading_deg=heading,
                                    rates_radps=tuple(rates))
         self.setup = EpisodeSetup(seed, alt, eas, interval, delay, scales, trim_command)
         self.turbulence = None
@@ -220,6 +243,7 @@ class FlightCore:
         self.sim_steps = 0
         self._pending: deque[tuple[int, np.ndarray]] = deque()
         self.applied_command = trim_command.copy()
+        self._nav_origin = None
         self._apply_gusts()
         return self._measure()
 
@@ -276,11 +300,12 @@ class FlightCore:
             return
         k = min(self.step_index, len(self._gust_wind) - 1)
         g = self._get_state
+        gain = self.turbulence_gain
         ned = dist.body_to_ned(g[1](), g[2](), g[14](), self._gust_wind[k])
         for s, v in zip(self._set_gust, ned):
-            s(v * M_TO_FT)
+            s(gain * v * M_TO_FT)
         for s, v in zip(self._set_gust_rate, self._gust_rate[k]):
-            s(v)
+            s(gain * v)
 
     # ------------------------------------------------------------------ measurements
     def true_state(self) -> list[float]:
@@ -303,6 +328,23 @@ class FlightCore:
     @property
     def time_s(self) -> float:
         return self.sim_steps * self.dt_s
+
+    def navigation(self) -> Navigation:
+        """Position and velocity as a GNSS/INS would give them (true values)."""
+        f = self.sim.fdm
+        lat, lon = f["position/lat-geod-rad"], f["position/long-gc-rad"]
+        if self._nav_origin is None:
+            self._nav_origin = (lat, lon)
+        lat0, lon0 = self._nav_origin
+        radius = EARTH_RADIUS_M + f["position/h-sl-meters"]
+        rho_ratio = f["atmosphere/rho-slugs_ft3"] / RHO0_SLUG_FT3
+        return Navigation(
+            north_m=(lat - lat0) * radius, east_m=(lon - lon0) * math.cos(lat0) * radius,
+            altitude_m=f["position/h-sl-meters"],
+            v_north_mps=f["velocities/v-north-fps"] * FT_TO_M, v_east_mps=f["velocities/v-east-fps"] * FT_TO_M,
+            v_down_mps=f["velocities/v-down-fps"] * FT_TO_M, tas_mps=f["velocities/vt-fps"] * FT_TO_M,
+            eas_to_tas=1.0 / math.sqrt(rho_ratio), heading_rad=f["attitude/psi-rad"],
+        )
 
     def envelope_violation(self) -> str | None:
         """Why the aircraft has left the flight envelope, or None."""

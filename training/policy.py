@@ -127,6 +127,11 @@ class PolicyRuntime:
         a = self.action(self.push(scale_observation(np.asarray(measurement), np.asarray(goal))))
         return action_to_command(np.clip(a.astype(np.float64), -1.0, 1.0))
 
+    def update(self, dt_s: float, measurement: np.ndarray, setpoint: np.ndarray) -> np.ndarray:
+        """``act`` under the shared attitude-controller interface (``jsbsim_env.controllers.base``);
+        the policy reads its observation window and ignores ``dt_s``."""
+        return self.act(measurement, setpoint)
+
     def act_scaled(self, observation: np.ndarray) -> np.ndarray:
         """Action in [-1, 1]^4 for an already scaled observation (as the environments give)."""
         return self.action(self.push(observation))

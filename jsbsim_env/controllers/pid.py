@@ -9,7 +9,8 @@
 
 Positive elevator pitches the nose down, positive aileron rolls left and positive rudder yaws
 left (SPEC sign conventions), hence the signs. The gains come from ``tuning`` at each altitude
-of ``DESIGN_ALTITUDES_M`` at EAS 10 m/s and are stored in ``pid_gains.json``
+of ``DESIGN_ALTITUDES_M`` at EAS 10 m/s and are stored, with the trim data TECS uses, in
+``pid_gains.json``
 (``scripts/tune_pid.py`` writes it). In flight they are interpolated in altitude, and the
 surface gains are scaled by q_s = (10 m/s / V_eas)^2 because control moments grow with
 dynamic pressure. Integrators stop integrating while their actuator is saturated in the same
@@ -38,9 +39,9 @@ MIN_EAS_FOR_SCALING_MPS = 6.0  # below this the dynamic-pressure scaling stops g
 
 
 @dataclass(frozen=True)
-class PIDGains:
-    """Gains at one design point. Surfaces: deg per rad, per rad/s or per rad s; throttle: per m/s
-    or per m; trims in deg and throttle fraction."""
+class DesignPoint:
+    """PID gains at one design point and the trim data the outer loops use. Gains: surfaces in deg
+    per rad, per rad/s or per rad s; throttle per m/s or per m."""
 
     k_pitch: float
     k_q: float
@@ -54,16 +55,19 @@ class PIDGains:
     k_beta: float
     elevator_trim_deg: float
     throttle_trim: float
+    pitch_trim_deg: float  # level flight
+    tas_accel_per_throttle_mps2: float  # dV_tas/dt per unit throttle at trim (for TECS)
 
 
 def design_gains(sim: Simulation, altitude_m: float, eas_mps: float = DESIGN_EAS_MPS,
-                 start: PIDGains | None = None) -> PIDGains:
+                 start: DesignPoint | None = None) -> DesignPoint:
     """Tune both blocks at one flight condition (``tuning``), from ``start``'s gains if given."""
     plant = tuning.LinearPlant.at(sim, altitude_m, eas_mps)
     v = None if start is None else np.array(astuple(start)[:10])
     long_gains = tuning.tune(tuning.LoopDesign(plant, lateral=False), None if v is None else v[:5])
     lat_gains = tuning.tune(tuning.LoopDesign(plant, lateral=True), None if v is None else v[5:])
-    return PIDGains(*map(float, long_gains), *map(float, lat_gains), plant.elevator_trim_deg, plant.throttle_trim)
+    return DesignPoint(*map(float, long_gains), *map(float, lat_gains), plant.elevator_trim_deg, plant.throttle_trim,
+                       plant.pitch_trim_deg, float(plant.b_long[0, 3]))
 
 
 def write_gain_table(path: Path = GAINS_PATH, altitudes_m=DESIGN_ALTITUDES_M, progress=None) -> dict:
@@ -93,7 +97,7 @@ class GainSchedule:
         try:
             table = json.loads(Path(path).read_text())
             points = table["points"]
-            names = [f.name for f in fields(PIDGains)]
+            names = [f.name for f in fields(DesignPoint)]
             self.altitudes_m = np.array([p["altitude_m"] for p in points], dtype=float)
             self.values = np.array([[float(p[n]) for n in names] for p in points])
         except (OSError, ValueError, KeyError, TypeError) as exc:
@@ -101,8 +105,8 @@ class GainSchedule:
         if len(self.altitudes_m) == 0 or np.any(np.diff(self.altitudes_m) <= 0) or not np.all(np.isfinite(self.values)):
             raise ValueError(f"PID gain table {path} needs finite gains at increasing altitudes")
 
-    def at(self, altitude_m: float) -> PIDGains:
-        return PIDGains(*(float(np.interp(altitude_m, self.altitudes_m, col)) for col in self.values.T))
+    def at(self, altitude_m: float) -> DesignPoint:
+        return DesignPoint(*(float(np.interp(altitude_m, self.altitudes_m, col)) for col in self.values.T))
 
 
 class PIDAttitudeController:
@@ -158,5 +162,5 @@ def _integrate(state: float, increment: float, command: float, clipped: float, l
     return min(max(state + increment, -limit), limit)
 
 
-__all__ = ["DESIGN_ALTITUDES_M", "GainSchedule", "PIDAttitudeController", "PIDGains", "design_gains",
+__all__ = ["DESIGN_ALTITUDES_M", "GainSchedule", "PIDAttitudeController", "DesignPoint", "design_gains",
            "write_gain_table"]

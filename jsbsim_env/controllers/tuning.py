@@ -69,6 +69,7 @@ class LinearPlant:
     b_lat: np.ndarray
     elevator_trim_deg: float
     throttle_trim: float
+    pitch_trim_deg: float
 
     @classmethod
     def at(cls, sim: Simulation, altitude_m: float, eas_mps: float) -> LinearPlant:
@@ -76,7 +77,7 @@ class LinearPlant:
         a_long, a_lat = linearise(sim, trim)
         b_long, b_lat = control_derivatives(sim, trim)
         return cls(altitude_m, eas_mps, trim.airspeed_tas_mps, a_long, b_long, a_lat, b_lat,
-                   trim.elevator_deg, trim.throttle)
+                   trim.elevator_deg, trim.throttle, trim.pitch_deg)
 
 
 def discretise(a: np.ndarray, b: np.ndarray, lags_s: tuple[float, ...], dt_s: float) -> tuple[np.ndarray, np.ndarray]:
