@@ -25,7 +25,6 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from jsbsim_env import disturbances as dist
 from jsbsim_env.controllers.base import AttitudeController
 from jsbsim_env.controllers.l1 import G_MPS2, L1Guidance, L1Params
 from jsbsim_env.controllers.pid import GainSchedule
@@ -81,7 +80,7 @@ class RouteConfig:
             sensor_noise=self.sensor_noise, noise_reversion_per_s=self.noise_reversion_per_s, parameters=self.parameters, turbulence=bool(self.turbulence_legs),
             turbulence_sigma_mps=self.turbulence_sigma_mps, backlash_deg=self.backlash_deg,
             perturb_attitude_deg=0.0, perturb_rate_degps=0.0, perturb_eas_mps=0.0,
-            max_steps=int(math.ceil(self.duration_s * self.control_rate_hz)) + 1,
+            max_steps=math.ceil(self.duration_s * self.control_rate_hz) + 1,
         )
 
 
@@ -127,7 +126,7 @@ def fly_route(controller: AttitudeController, config: RouteConfig | None = None,
     cfg = config or RouteConfig()
     waypoints = cfg.waypoints()
     dt = 1.0 / cfg.control_rate_hz
-    steps = int(math.ceil(cfg.duration_s * cfg.control_rate_hz))
+    steps = math.ceil(cfg.duration_s * cfg.control_rate_hz)
     core = FlightCore(cfg.core_config())
     first_leg = waypoints[1] - waypoints[0]
     heading_deg = math.degrees(math.atan2(first_leg[1], first_leg[0]))

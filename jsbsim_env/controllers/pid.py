@@ -162,5 +162,11 @@ def _integrate(state: float, increment: float, command: float, clipped: float, l
     return min(max(state + increment, -limit), limit)
 
 
-__all__ = ["DESIGN_ALTITUDES_M", "GainSchedule", "PIDAttitudeController", "DesignPoint", "design_gains",
-           "write_gain_table"]
+__all__ = [
+    "DESIGN_ALTITUDES_M",
+    "DesignPoint",
+    "GainSchedule",
+    "PIDAttitudeController",
+    "design_gains",
+    "write_gain_table",
+]
