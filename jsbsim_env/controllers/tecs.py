@@ -6,6 +6,9 @@ energy balance E_B = w_P g h - w_K V^2/2 (w_K = ``speed_weight``, w_P = 2 - w_K)
 
 Per update (SI units, TAS for the energy terms):
 
+* the height and airspeed demands move towards the commanded ones no faster than the climb and
+  sink limits and ``max_speed_rate_mps2`` (PX4's setpoint rate limits), so that a step command
+  does not appear as a large energy error;
 * height-rate demand  h_dot_sp = (h_sp - h) / time_const, limited to [-max_sink, max_climb];
   TAS-rate demand     V_dot_sp = (V_sp - V) / time_const;
 * throttle = cruise throttle + feed-forward of the demanded total-energy rate, mapped linearly
@@ -44,6 +47,7 @@ class TECSParams:
     vert_accel_limit_mps2: float = 2.0  # FW_T_VERT_ACC (PX4: 7; gentler for this airframe)
     throttle_limits: tuple[float, float] = (0.0, 1.0)
     speed_rate_filter_s: float = 0.5  # first-order filter on the differentiated airspeed
+    max_speed_rate_mps2: float = 0.2  # rate limit of the airspeed demand (PX4 limits it by the achievable acceleration)
 
 
 @dataclass(frozen=True)
@@ -98,6 +102,7 @@ class TECS:
         if not self._initialised:
             self._tas_prev = tas_mps
             self.last_pitch_rad = self.pitch_unclamped_rad = pitch_rad
+            self.altitude_demand_m, self.eas_demand_mps = altitude_m, tas_mps / eas_to_tas
             self._initialised = True
         # Airspeed rate: differentiated and filtered (PX4 uses a complementary filter with the
         # longitudinal acceleration; airspeed alone is what this aircraft's sensor set gives).
@@ -106,11 +111,17 @@ class TECS:
         a = dt_s / (p.speed_rate_filter_s + dt_s)
         self.tas_rate_mps2 += a * (raw_rate - self.tas_rate_mps2)
 
-        tas_sp = eas_sp_mps * eas_to_tas
-        h_rate_sp = min(max((altitude_sp_m - altitude_m) / p.time_const_s, -p.max_sink_mps), p.max_climb_mps)
+        # Rate-limited demands.
+        self.altitude_demand_m += min(max(altitude_sp_m - self.altitude_demand_m, -p.max_sink_mps * dt_s),
+                                      p.max_climb_mps * dt_s)
+        self.eas_demand_mps += min(max(eas_sp_mps - self.eas_demand_mps, -p.max_speed_rate_mps2 * dt_s),
+                                   p.max_speed_rate_mps2 * dt_s)
+        h_sp = self.altitude_demand_m
+        tas_sp = self.eas_demand_mps * eas_to_tas
+        h_rate_sp = min(max((h_sp - altitude_m) / p.time_const_s, -p.max_sink_mps), p.max_climb_mps)
         tas_rate_sp = (tas_sp - tas_mps) / p.time_const_s
 
-        spe_sp, ske_sp = altitude_sp_m * G_MPS2, 0.5 * tas_sp * tas_sp
+        spe_sp, ske_sp = h_sp * G_MPS2, 0.5 * tas_sp * tas_sp
         spe, ske = altitude_m * G_MPS2, 0.5 * tas_mps * tas_mps
         spe_rate_sp, ske_rate_sp = h_rate_sp * G_MPS2, tas_mps * tas_rate_sp
         spe_rate, ske_rate = climb_rate_mps * G_MPS2, tas_mps * self.tas_rate_mps2

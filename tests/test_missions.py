@@ -1,0 +1,54 @@
+"""Route missions: the PID baseline flies the 10 km route inside a corridor; settings are checked."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from jsbsim_env.controllers.base import AttitudeController
+from jsbsim_env.controllers.pid import PIDAttitudeController
+from jsbsim_env.missions import RouteConfig, fly_route
+
+
+@pytest.fixture(scope="module")
+def pid_route():
+    # First leg, the corner and part of the second leg, with turbulence on the second leg.
+    config = RouteConfig(altitude_m=10_000.0, duration_s=500.0, turbulence_legs=(1,), seed=3)
+    return fly_route(PIDAttitudeController(), config)
+
+
+def test_pid_is_an_attitude_controller():
+    assert isinstance(PIDAttitudeController(), AttitudeController)
+
+
+def test_pid_flies_the_route_inside_the_corridor(pid_route):
+    r = pid_route
+    assert r.ended_early is None
+    a = r.arrays
+    assert a["leg"].max() >= 1, "reached the second leg"
+    assert set(np.unique(a["turbulence"][a["leg"] == 1])) == {1.0}
+    assert set(np.unique(a["turbulence"][a["leg"] == 0])) == {0.0}
+    m = r.metrics()
+    # Corridor: the corner is cut by about one turn radius at the 5 deg roll limit (346 m at
+    # 10 km, 10 m/s EAS); height within 10 m; attitude errors of a well-tuned loop.
+    assert m["max_cross_track_m"] < 450.0
+    assert m["max_altitude_error_m"] < 10.0
+    assert m["rmse_roll_deg"] < 1.0 and m["rmse_pitch_deg"] < 0.5
+    assert m["rmse_airspeed_eas_mps"] < 0.3
+    assert np.all(np.abs(a["command"][:, :3]) <= np.array([30.0, 30.0, 20.0]))
+
+
+def test_level_flight_window_is_tight(pid_route):
+    # Straight and level before the corner, out of turbulence.
+    m = pid_route.metrics(60.0, 280.0)
+    assert m["mae_roll_deg"] < 0.2 and m["mae_pitch_deg"] < 0.2
+    assert m["max_cross_track_m"] < 20.0
+
+
+def test_bad_route_settings():
+    with pytest.raises(ValueError, match="waypoints"):
+        RouteConfig(waypoints_ne_m=((0.0, 0.0),)).waypoints()
+    with pytest.raises(ValueError, match="shorter than 1 m"):
+        RouteConfig(waypoints_ne_m=((0.0, 0.0), (0.0, 0.5))).waypoints()
+    with pytest.raises(ValueError, match="no samples"):
+        fly_route(PIDAttitudeController(), RouteConfig(duration_s=1.0)).metrics(100.0, 200.0)
