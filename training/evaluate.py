@@ -108,24 +108,32 @@ def step_response_metrics(rec: EpisodeRecorder) -> dict:
     return out
 
 
-def evaluate(runtime: PolicyRuntime, episodes: int = 50, plot_dir: Path | None = None,
-             progress: bool = False) -> dict:
-    """Run the whole suite; returns the metrics (and writes the Fig. 9 plots to ``plot_dir``)."""
-    results: dict = {"doublets": {}, "episodes": {}}
+def doublet_runs(runtime: PolicyRuntime, altitudes_m=DOUBLET_ALTITUDES_M, plot_dir: Path | None = None,
+                 prefix: str = "doublets") -> dict:
+    """SPEC section 4 item 2: the scripted doublets from a slightly perturbed start at each altitude,
+    no delay, noise or perturbation of the aircraft. Returns metrics per altitude; writes the
+    Fig. 9 plots and time histories to ``plot_dir``."""
+    results = {}
     ideal = CoreConfig.ideal(perturb_attitude_deg=2.0, perturb_rate_degps=1.0, perturb_eas_mps=0.5,
                              max_steps=int(DOUBLET_END_S / 0.05) + 1)
     batch = AttitudeTaskBatch(1, TaskConfig(core=ideal))
     steps = int(DOUBLET_END_S / 0.05)
-    for altitude in DOUBLET_ALTITUDES_M:
+    for altitude in altitudes_m:
         rec, end = fly(runtime, batch, seed=int(altitude), steps=steps, goal_fn=doublet_goal, altitude_m=altitude,
                        airspeed_eas_mps=10.0)
-        metrics = {**rec.tracking_metrics(), **step_response_metrics(rec), "ended_early": end["terminated"],
-                   "termination": end["reason"]}
-        results["doublets"][f"{altitude:.0f}m"] = metrics
+        results[f"{altitude:.0f}m"] = {**rec.tracking_metrics(), **step_response_metrics(rec),
+                                       "ended_early": end["terminated"], "termination": end["reason"]}
         if plot_dir is not None:
             Path(plot_dir).mkdir(parents=True, exist_ok=True)
-            rec.plot(Path(plot_dir) / f"doublets_{altitude:.0f}m.png", f"Doublets at {altitude:.0f} m, EAS 10 m/s")
-            rec.save(Path(plot_dir) / f"doublets_{altitude:.0f}m.npz")
+            rec.plot(Path(plot_dir) / f"{prefix}_{altitude:.0f}m.png", f"Doublets at {altitude:.0f} m, EAS 10 m/s")
+            rec.save(Path(plot_dir) / f"{prefix}_{altitude:.0f}m.npz")
+    return results
+
+
+def evaluate(runtime: PolicyRuntime, episodes: int = 50, plot_dir: Path | None = None,
+             progress: bool = False) -> dict:
+    """Run the whole suite; returns the metrics (and writes the Fig. 9 plots to ``plot_dir``)."""
+    results: dict = {"doublets": doublet_runs(runtime, DOUBLET_ALTITUDES_M, plot_dir), "episodes": {}}
     batch = AttitudeTaskBatch(1, TaskConfig())
     rows, early, reasons = [], 0, []
     iterator = range(episodes)
@@ -147,4 +155,4 @@ def evaluate(runtime: PolicyRuntime, episodes: int = 50, plot_dir: Path | None =
     return results
 
 
-__all__ = ["DOUBLET_ALTITUDES_M", "doublet_goal", "evaluate", "fly", "step_response_metrics"]
+__all__ = ["DOUBLET_ALTITUDES_M", "doublet_goal", "doublet_runs", "evaluate", "fly", "step_response_metrics"]

@@ -1,0 +1,32 @@
+"""Run the paper's experiments (SPEC section 4 items 2-8) and write a report with plots.
+
+    python scripts/report.py --out results/report             # full (a few minutes)
+    python scripts/report.py --out /tmp/report --quick        # seconds, for checks
+    python scripts/report.py --out DIR --policy runs/NAME/best_policy.pt
+
+Writes DIR/report.md, a PNG per figure and DIR/metrics.json. The trained policy is the shipped
+one unless --policy is given; without either the PID parts run alone.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from training.report import run_report
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--out", type=Path, required=True, help="folder for report.md, the figures and metrics.json")
+    parser.add_argument("--policy", type=Path, help="policy file (default: the shipped controller)")
+    parser.add_argument("--quick", action="store_true", help="short flights, for tests")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    args = parser.parse_args(argv)
+    run_report(args.out, args.policy, quick=args.quick, progress=not args.no_progress)
+    print(f"wrote {args.out / 'report.md'}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,49 @@
+"""``scripts/report.py --quick`` writes every file its report names."""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+from training.config import TrainConfig
+from training.trainer import Trainer
+
+SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
+
+
+def test_quick_report_writes_every_named_file(tmp_path):
+    # An untrained policy stands in for the trained one: the report must cope with whatever it flies.
+    c = TrainConfig(seed=2)
+    c.env.num_envs = 1
+    c.buffer.capacity = 10
+    c.log.progress = False
+    policy = tmp_path / "policy.pt"
+    Trainer(c, tmp_path / "run").save_policy(policy, {"return_norm": 0.0})
+    out = tmp_path / "report"
+    done = subprocess.run([sys.executable, str(SCRIPTS / "report.py"), "--out", str(out), "--quick", "--policy",
+                           str(policy), "--no-progress"], check=False, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    text = (out / "report.md").read_text()
+    named = re.findall(r"\]\(([^)]+)\)", text)
+    # Quick mode: one doublet altitude, Fig. 10, and per controller 8 route figures.
+    assert len(named) == 2 + 2 * 8
+    for name in named:
+        assert (out / name).is_file() and (out / name).stat().st_size > 1000, name
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["controllers"] == ["PID", "RL"]
+    for key in ("route_10km", "perturbation", "altitudes", "backlash", "doublets", "effectiveness"):
+        assert key in metrics
+    assert "| PID | ours |" in text and "| RL | ours |" in text
+    # The PID's rows match its metrics.
+    pid = metrics["route_10km"]["PID"]["turbulent_leg"]
+    assert f"| PID | ours | {pid['rmse_roll_deg']:.3f} |" in text
+
+
+def test_report_without_a_policy_file_fails_clearly(tmp_path):
+    done = subprocess.run([sys.executable, str(SCRIPTS / "report.py"), "--out", str(tmp_path), "--quick", "--policy",
+                           str(tmp_path / "missing.pt"), "--no-progress"],
+                          check=False, capture_output=True, text=True, timeout=300)
+    assert done.returncode != 0 and "does not exist" in done.stderr
