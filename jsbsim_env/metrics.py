@@ -24,6 +24,18 @@ def rmse(signal: np.ndarray, reference: np.ndarray | float = 0.0) -> float:
     return float(np.sqrt(np.mean(err * err)))
 
 
+ACTUATORS = ("aileron", "elevator", "rudder", "throttle")
+
+
+def actuator_smoothness(commands: np.ndarray, sample_rate_hz: float) -> dict[str, float]:
+    """Sm of each column of ``commands`` (aileron, elevator, rudder in degrees, throttle 0..1),
+    with the surfaces taken in radians: on that scale our figures and the paper's Table 8 have the
+    same order of magnitude, which they do not in degrees."""
+    c = np.asarray(commands, dtype=float)
+    to_si = np.array([np.pi / 180.0, np.pi / 180.0, np.pi / 180.0, 1.0])
+    return {f"smoothness_{name}": smoothness(c[:, j] * to_si[j], sample_rate_hz) for j, name in enumerate(ACTUATORS)}
+
+
 def smoothness(signal: np.ndarray, sample_rate_hz: float) -> float:
     """Sm = 2 / (n fs) * sum_i M_i f_i (SPEC section 4 item 5).
 
@@ -70,7 +82,7 @@ class EpisodeRecorder:
 
     def tracking_metrics(self, sample_rate_hz: float | None = None) -> dict[str, float]:
         """RMSE of roll, pitch (deg), EAS (m/s) against their goals and of sideslip (deg) against
-        zero; smoothness of each actuator command (degrees, throttle 0..1)."""
+        zero; smoothness of each actuator command (``actuator_smoothness``)."""
         a = self.arrays()
         s, g, c = a["true_state"], a["goal"], a["command"]
         if sample_rate_hz is None:
@@ -81,8 +93,7 @@ class EpisodeRecorder:
             "rmse_airspeed_eas_mps": rmse(s[:, 6], g[:, 2]),
             "rmse_beta_deg": rmse(np.degrees(s[:, 8])),
         }
-        for j, name in enumerate(("aileron", "elevator", "rudder", "throttle")):
-            out[f"smoothness_{name}"] = smoothness(c[:, j], sample_rate_hz)
+        out.update(actuator_smoothness(c, sample_rate_hz))
         return out
 
     def plot(self, path: Path | str, title: str = "") -> None:

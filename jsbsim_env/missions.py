@@ -30,9 +30,7 @@ from jsbsim_env.controllers.l1 import G_MPS2, L1Guidance, L1Params
 from jsbsim_env.controllers.pid import GainSchedule
 from jsbsim_env.controllers.tecs import TECS, TECSParams
 from jsbsim_env.core import CoreConfig, FlightCore
-from jsbsim_env.metrics import rmse, smoothness
-
-ACTUATORS = ("aileron", "elevator", "rudder", "throttle")
+from jsbsim_env.metrics import actuator_smoothness, rmse
 
 
 @dataclass(frozen=True)
@@ -98,7 +96,8 @@ class MissionResult:
 
     def metrics(self, start_s: float = 0.0, end_s: float = math.inf) -> dict[str, float]:
         """RMSE and mean absolute error of roll, pitch (deg), EAS (m/s) against their demands and
-        of sideslip (deg) against zero, and Sm of each actuator command, over [start_s, end_s)."""
+        of sideslip (deg) against zero, and Sm of each actuator command (``metrics.actuator_smoothness``),
+        over [start_s, end_s)."""
         a, w = self.arrays, self.window(start_s, end_s)
         if not np.any(w):
             raise ValueError(f"no samples between {start_s} s and {end_s} s")
@@ -112,8 +111,7 @@ class MissionResult:
         for name, e in errors.items():
             out[f"rmse_{name}"] = rmse(e)
             out[f"mae_{name}"] = float(np.mean(np.abs(e)))
-        for j, name in enumerate(ACTUATORS):
-            out[f"smoothness_{name}"] = smoothness(a["command"][w, j], self.config.control_rate_hz)
+        out.update(actuator_smoothness(a["command"][w], self.config.control_rate_hz))
         out["max_cross_track_m"] = float(np.max(np.abs(a["cross_track_m"][w])))
         out["max_altitude_error_m"] = float(np.max(np.abs(a["altitude_m"][w] - self.config.altitude_m)))
         return out

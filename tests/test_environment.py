@@ -13,7 +13,7 @@ import torch
 import jsbsim_env
 from jsbsim_env import disturbances as dist
 from jsbsim_env.core import NOISE_SIGMA, CommandError, CoreConfig, Envelope, FlightCore
-from jsbsim_env.metrics import EpisodeRecorder, rmse, smoothness
+from jsbsim_env.metrics import EpisodeRecorder, actuator_smoothness, rmse, smoothness
 from jsbsim_env.task import (
     GOAL_HIGH,
     GOAL_LOW,
@@ -413,6 +413,16 @@ def test_rmse_and_smoothness_on_known_signals():
     assert smoothness(0.7 * np.sin(2 * np.pi * 2.0 * t), 25.0) == pytest.approx(2 * 0.7 * 2.0 / (1000 * 25.0))
     # Faster or larger motion is less smooth.
     assert smoothness(np.sin(2 * np.pi * 4.0 * t), 25.0) > smoothness(np.sin(2 * np.pi * 1.0 * t), 25.0)
+
+
+def test_actuator_smoothness_takes_surfaces_in_radians():
+    t = np.arange(1000) / 25.0
+    wave = np.sin(2 * np.pi * 1.0 * t)
+    commands = np.stack([10.0 * wave, 0 * wave, 0 * wave, 0.1 * wave + 0.5], axis=1)
+    sm = actuator_smoothness(commands, 25.0)
+    assert sm["smoothness_aileron"] == pytest.approx(smoothness(math.radians(10.0) * wave, 25.0))
+    assert sm["smoothness_elevator"] == pytest.approx(0.0, abs=1e-15)
+    assert sm["smoothness_throttle"] == pytest.approx(2 * 0.1 * 1.0 / (1000 * 25.0))
 
 
 def test_episode_recorder_metrics_and_plot(tmp_path):

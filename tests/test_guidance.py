@@ -111,6 +111,16 @@ def test_l1_corrects_a_heading_error():
     assert np.abs(r["xtrack"]).max() < 150.0
 
 
+def test_l1_turns_onto_a_new_leg_from_beside_its_start():
+    # At a corner: heading west, 300 m east of the start of a northbound leg. Turn right at once
+    # (not fly to the start point first).
+    g = L1Guidance().update((-1e-6, 300.0), (0.0, -TAS0_MPS), (0.0, 0.0), (6000.0, 0.0))
+    assert g.roll_rad == pytest.approx(math.radians(5.0))
+    # Far behind the leg's start: head for the start point (here straight ahead, so no roll).
+    g = L1Guidance().update((-2000.0, 0.0), (TAS0_MPS, 0.0), (0.0, 0.0), (6000.0, 0.0))
+    assert g.roll_rad == pytest.approx(0.0)
+
+
 def test_l1_rejects_a_degenerate_leg():
     with pytest.raises(ValueError, match="zero length"):
         L1Guidance().update((0.0, 0.0), (10.0, 0.0), (5.0, 5.0), (5.0, 5.0))

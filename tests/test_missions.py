@@ -7,7 +7,7 @@ import pytest
 
 from jsbsim_env.controllers.base import AttitudeController
 from jsbsim_env.controllers.pid import PIDAttitudeController
-from jsbsim_env.missions import RouteConfig, fly_route
+from jsbsim_env.missions import MissionResult, RouteConfig, fly_route
 
 
 @pytest.fixture(scope="module")
@@ -52,3 +52,24 @@ def test_bad_route_settings():
         RouteConfig(waypoints_ne_m=((0.0, 0.0), (0.0, 0.5))).waypoints()
     with pytest.raises(ValueError, match="no samples"):
         fly_route(PIDAttitudeController(), RouteConfig(duration_s=1.0)).metrics(100.0, 200.0)
+
+
+def test_mission_metrics_on_known_signals():
+    n = 1000
+    t = np.arange(n) / 25.0
+    zeros = np.zeros(n)
+    arrays = {name: zeros.copy() for name in ("north_m", "east_m", "heading_rad", "cross_track_m", "leg",
+                                              "turbulence", "roll_cmd_rad", "pitch_cmd_rad")}
+    arrays.update(time_s=t, altitude_m=np.full(n, 10_000.0), eas_mps=np.full(n, 10.3), eas_cmd_mps=np.full(n, 10.0),
+                  roll_rad=np.full(n, np.radians(0.5)), pitch_rad=np.radians(0.2 * np.sin(2 * np.pi * 0.5 * t)),
+                  beta_rad=zeros.copy(), actuator=np.zeros((n, 4)))
+    arrays["command"] = np.stack([5.0 * np.sin(2 * np.pi * 1.0 * t), zeros, zeros, np.full(n, 0.3)], axis=1)
+    m = MissionResult(RouteConfig(), arrays, None).metrics()
+    assert m["rmse_roll_deg"] == pytest.approx(0.5) and m["mae_roll_deg"] == pytest.approx(0.5)
+    assert m["rmse_pitch_deg"] == pytest.approx(0.2 / np.sqrt(2), rel=1e-6)
+    assert m["mae_pitch_deg"] == pytest.approx(0.2 * 2 / np.pi, rel=5e-3)  # 50 samples a period
+    assert m["rmse_airspeed_eas_mps"] == pytest.approx(0.3)
+    assert m["smoothness_aileron"] == pytest.approx(2 * np.radians(5.0) * 1.0 / (n * 25.0))
+    assert m["smoothness_throttle"] == pytest.approx(0.0, abs=1e-15)
+    half = MissionResult(RouteConfig(), arrays, None).metrics(0.0, 20.0)
+    assert half["rmse_roll_deg"] == pytest.approx(0.5)

@@ -141,7 +141,7 @@ def plot_route(result: MissionResult, path: Path, title: str) -> None:
         ax.set_ylabel(label)
         ax.legend(fontsize=7, loc="upper right")
     ax = fig.add_subplot(4, 2, 5)
-    ax.plot(t, np.degrees(a["heading_rad"]) % 360.0)
+    ax.plot(t, (np.degrees(a["heading_rad"]) + 180.0) % 360.0 - 180.0, ".", ms=1)
     ax.set_ylabel("heading, deg")
     ax = fig.add_subplot(4, 2, 7)
     ax.plot(t, a["eas_mps"])
@@ -372,7 +372,7 @@ def render_markdown(metrics: dict, out: Path) -> str:
         entry = metrics.get("route_10km", {}).get(name)
         if entry and "turbulent_leg" in entry:
             lines.append(f"| {name} | ours | " + " | ".join(_fmt(entry["turbulent_leg"][k]) for k in keys) + " |")
-    lines += ["", "Sm is computed on the actuator commands (degrees, throttle 0..1) at 25 Hz.", ""]
+    lines += ["", "Sm is computed on the actuator commands (surfaces in radians, throttle 0..1) at 25 Hz.", ""]
 
     lines += ["## Level flight on the 10 km route: mean absolute error", "",
               "| controller | source | roll, deg | pitch, deg | sideslip, deg |", "|---|---|---|---|---|",

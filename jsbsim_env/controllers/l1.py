@@ -9,8 +9,8 @@ L1 = period x damping / pi x |v| and the leg A -> B (unit vector t):
 * eta = clamp(eta1 + eta2, +-90 deg), lateral acceleration a = 4 damping^2 |v|^2 / L1 sin(eta);
 * roll demand = atan(a / g), limited to the attitude controller's range.
 
-If the aircraft is farther than L1 from A and behind it, it first flies to A (PX4's capture
-case). Coordinates are local north/east in metres; positive roll banks right.
+If the aircraft is farther than L1 from A and more than 135 deg behind it (seen along the leg),
+it first flies to A (PX4's capture case). Coordinates are local north/east in metres; positive roll banks right.
 """
 
 from __future__ import annotations
@@ -72,9 +72,10 @@ class L1Guidance:
         an, ae = position_ne_m[0] - a_ne_m[0], position_ne_m[1] - a_ne_m[1]  # A -> aircraft
         along = an * tn + ae * te
         cross_track = _cross(tn, te, an, ae)  # positive right of the leg (north-east axes)
-        if math.hypot(an, ae) > l1 and along < 0.0:
-            # Behind A and farther than L1: head for A first.
-            to_a_n, to_a_e = -an / math.hypot(an, ae), -ae / math.hypot(an, ae)
+        distance_a = math.hypot(an, ae)
+        if distance_a > l1 and along / max(distance_a, 1.0) < -math.sqrt(0.5):
+            # Farther than L1 from A and more than 135 deg behind it: head for A first.
+            to_a_n, to_a_e = -an / distance_a, -ae / distance_a
             eta = math.atan2(_cross(vn, ve, to_a_n, to_a_e), vn * to_a_n + ve * to_a_e)
         else:
             eta2 = math.atan2(_cross(vn, ve, tn, te), vn * tn + ve * te)
