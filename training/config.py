@@ -50,7 +50,8 @@ class OptimSettings:
     lr: float = _f(3e-4, "Adam learning rate of actor and critics (SPEC: 3e-4)")
     gamma: float = _f(0.99, "discount (SPEC: 0.99)")
     tau: float = _f(0.005, "soft target update rate per gradient step (SPEC: 0.005)")
-    alpha: float = _f(0.2, "fixed entropy temperature (SPEC: 0.2)")
+    alpha: float = _f(0.2, "entropy temperature, fixed (SPEC: 0.2), or the initial one with auto_alpha")
+    auto_alpha: bool = _f(False, "tune the temperature towards an entropy of -4 (SAC v2) instead of fixing it")
     updates_per_step: float = _f(1.0, "gradient steps per environment step (SPEC: 1)")
 
 

@@ -25,7 +25,7 @@ from jsbsim_env.core import CoreConfig
 from jsbsim_env.task import TaskConfig
 from jsbsim_env.torchrl_env import make_env
 from training.caps import caps_losses
-from training.checkpoint import atomic_save, config_fingerprint, load_checkpoint, save_checkpoint
+from training.checkpoint import CheckpointError, atomic_save, config_fingerprint, load_checkpoint, save_checkpoint
 from training.config import TrainConfig
 from training.evaluation import evaluate_policy
 from training.networks import make_actor, make_critic
@@ -34,8 +34,8 @@ from training.relabel import relabel_goals
 STORED_KEYS = ("observation", "action", ("next", "observation"), ("next", "reward"), ("next", "done"),
                ("next", "terminated"), ("next", "achieved"))
 CSV_FIELDS = ("frames", "updates", "wall_s", "env_steps_per_s", "episodes", "episode_return", "episode_return_norm",
-              "episode_length", "loss_actor", "loss_qvalue", "caps_temporal", "caps_spatial", "eval_return_norm",
-              "eval_length", "eval_early_ends")
+              "episode_length", "loss_actor", "loss_qvalue", "caps_temporal", "caps_spatial", "alpha", "entropy",
+              "eval_return_norm", "eval_length", "eval_early_ends")
 
 
 def resume_fingerprint(config: TrainConfig) -> str:
@@ -79,11 +79,14 @@ class Trainer:
         critic = make_critic(c.network.lstm_hidden, c.network.mlp_hidden).to(self.device)
         # nn.LSTM cannot run under vmap, which SACLoss uses for the twin critics by default.
         self.loss = SACLoss(self.actor, critic, num_qvalue_nets=2, loss_function="l2", alpha_init=c.optim.alpha,
-                            fixed_alpha=True, action_spec=self.env.action_spec, deactivate_vmap=True)
+                            fixed_alpha=not c.optim.auto_alpha, action_spec=self.env.action_spec,
+                            deactivate_vmap=True)
         self.loss.make_value_estimator(gamma=c.optim.gamma)
         self.target_update = SoftUpdate(self.loss, tau=c.optim.tau)
         self.actor_optim = torch.optim.Adam(self.loss.actor_network_params.flatten_keys().values(), lr=c.optim.lr)
         self.critic_optim = torch.optim.Adam(self.loss.qvalue_network_params.flatten_keys().values(), lr=c.optim.lr)
+        # With a tuned temperature, its log is one more parameter with its own optimiser.
+        self.alpha_optim = torch.optim.Adam([self.loss.log_alpha], lr=c.optim.lr) if c.optim.auto_alpha else None
         self.buffer = TensorDictReplayBuffer(storage=LazyTensorStorage(c.buffer.capacity), batch_size=c.buffer.batch_size)
         self.counters = Counters()
         self.fingerprint = resume_fingerprint(c)
@@ -107,6 +110,7 @@ class Trainer:
             "loss": self.loss.state_dict(),
             "actor_optim": self.actor_optim.state_dict(),
             "critic_optim": self.critic_optim.state_dict(),
+            "alpha_optim": self.alpha_optim.state_dict() if self.alpha_optim else None,
             "buffer": buffer_contents(self.buffer),
             "counters": self.counters.__dict__,
             "torch_rng": torch.get_rng_state(),
@@ -114,11 +118,22 @@ class Trainer:
         }, self.fingerprint)
 
     def _load(self) -> None:
-        data = load_checkpoint(self.checkpoint_path, self.fingerprint,
-                               required=("loss", "actor_optim", "critic_optim", "buffer", "counters"))
+        data = load_checkpoint(self.checkpoint_path, required=("config", "loss", "actor_optim", "critic_optim",
+                                                               "buffer", "counters"))
+        # Compare the run's settings as this version reads them: a setting added since the run
+        # started takes its default on both sides instead of making every older run unresumable.
+        try:
+            saved = resume_fingerprint(TrainConfig.from_dict(data["config"]))
+        except (TypeError, ValueError) as err:
+            raise CheckpointError(f"checkpoint {self.checkpoint_path} holds unreadable settings: {err}") from err
+        if saved != self.fingerprint:
+            raise CheckpointError(f"checkpoint {self.checkpoint_path} was written by a run with other settings "
+                                  f"(fingerprint {saved}, this run {self.fingerprint})")
         self.loss.load_state_dict(data["loss"])
         self.actor_optim.load_state_dict(data["actor_optim"])
         self.critic_optim.load_state_dict(data["critic_optim"])
+        if self.alpha_optim is not None:
+            self.alpha_optim.load_state_dict(data["alpha_optim"])
         restore_buffer(self.buffer, data["buffer"])
         self.counters = Counters(**data["counters"])
         torch.set_rng_state(data["torch_rng"])
@@ -162,15 +177,21 @@ class Trainer:
         actor_loss = losses["loss_actor"] + c.caps.kappa_temporal * temporal + c.caps.kappa_spatial * spatial
         # One backward pass: SACLoss detaches the critics inside the actor loss, so each optimiser
         # sees only its own loss's gradient.
-        self.critic_optim.zero_grad(set_to_none=True)
-        self.actor_optim.zero_grad(set_to_none=True)
-        (losses["loss_qvalue"] + actor_loss).backward()
-        self.critic_optim.step()
-        self.actor_optim.step()
+        total = losses["loss_qvalue"] + actor_loss
+        optimisers = [self.critic_optim, self.actor_optim]
+        if self.alpha_optim is not None:
+            total = total + losses["loss_alpha"]  # computed on detached log-probabilities
+            optimisers.append(self.alpha_optim)
+        for opt in optimisers:
+            opt.zero_grad(set_to_none=True)
+        total.backward()
+        for opt in optimisers:
+            opt.step()
         self.target_update.step()
         self.counters.updates += 1
         for key, value in (("loss_actor", losses["loss_actor"]), ("loss_qvalue", losses["loss_qvalue"]),
-                           ("caps_temporal", temporal), ("caps_spatial", spatial)):
+                           ("caps_temporal", temporal), ("caps_spatial", spatial), ("alpha", losses["alpha"]),
+                           ("entropy", losses["entropy"])):
             self._losses.setdefault(key, []).append(float(value.detach()))
 
     def _record_episodes(self, data: TensorDictBase) -> None:
