@@ -13,7 +13,7 @@ import torch
 
 from training.checkpoint import CheckpointError, atomic_save, load_checkpoint
 from training.config import TrainConfig
-from training.trainer import Trainer
+from training.trainer import RunLockedError, Trainer
 
 SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
 
@@ -107,3 +107,14 @@ def test_train_script_help_lists_the_settings():
     assert done.returncode == 0
     for option in ("--resume", "--seed", "--optim.lr", "--caps.kappa_spatial", "--collector.total_frames"):
         assert option in done.stdout
+
+
+def test_a_second_trainer_on_a_live_run_is_refused(tmp_path):
+    run = tmp_path / "run"
+    first = Trainer(tiny_config(96), run)
+    with pytest.raises(RunLockedError, match="another process"):
+        Trainer(tiny_config(96), run, resume=True)
+    del first  # the lock goes with the trainer
+    import gc
+
+    gc.collect()

@@ -67,6 +67,7 @@ class Trainer:
         self.config = c = config
         self.run_dir = Path(run_dir)
         self.run_dir.mkdir(parents=True, exist_ok=True)
+        self._lock = _lock_run_dir(self.run_dir)
         if c.threads > 0:
             torch.set_num_threads(c.threads)
         torch.manual_seed(c.seed)
@@ -320,6 +321,27 @@ class Trainer:
         }
         self._losses.clear()
         return {k: row.get(k, "") for k in CSV_FIELDS}
+
+
+class RunLockedError(RuntimeError):
+    """Another process is training in this run folder."""
+
+
+def _lock_run_dir(run_dir: Path):
+    """Hold an exclusive lock on ``run_dir/.lock`` for the trainer's lifetime, so that a second
+    trainer (a resume while the run is still going) cannot rewrite its logs and checkpoint. The
+    operating system drops the lock when the process ends, however it ends."""
+    try:
+        import fcntl
+    except ImportError:  # not on POSIX: no lock
+        return None
+    handle = (run_dir / ".lock").open("a")
+    try:
+        fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        handle.close()
+        raise RunLockedError(f"another process is training in {run_dir}; wait for it or stop it first") from None
+    return handle
 
 
 def buffer_contents(buffer: TensorDictReplayBuffer) -> dict:
