@@ -3,7 +3,7 @@
     import gymnasium as gym, jsbsim_env
     env = gym.make("SolarUAVAttitude-v0")
 
-One aircraft, observation (16,) float32 and action (4,) float32 in [-1, 1] as described in
+One aircraft, observation (20,) float32 and action (4,) float32 in [-1, 1] as described in
 ``jsbsim_env.task``; ``info`` carries every reward term and the termination reason. Pass
 ``config=TaskConfig(...)`` to ``gym.make`` to change the disturbances.
 """

@@ -2,7 +2,7 @@
 
 | item | definition |
 |---|---|
-| observation (16) | SPEC Eq. 18-19: altitude, roll, pitch, p, q, r, V_eas, alpha, beta, aileron, elevator, rudder, throttle, then the goals roll_cmd, pitch_cmd, V_eas_cmd; each scaled by ``OBS_OFFSET``/``OBS_SCALE`` |
+| observation (20) | SPEC Eq. 18-19: altitude, roll, pitch, p, q, r, V_eas, alpha, beta, aileron, elevator, rudder, throttle; then the last action (4, in [-1, 1]); then the goals roll_cmd, pitch_cmd, V_eas_cmd; each scaled by ``OBS_OFFSET``/``OBS_SCALE`` |
 | action (4) | in [-1, 1]: aileron +-30 deg, elevator +-30 deg, rudder +-20 deg, throttle 0..1 (SPEC Table 2) |
 | reward | SPEC Eq. 22: 1 - p_roll - p_pitch - p_V - p_beta, errors in deg and m/s; each term in ``info`` |
 | goals | drawn in roll +-5 deg, pitch +-10 deg, V_eas 8..12 m/s; each channel steps to a new draw after a hold drawn in ``goal_hold_s`` |
@@ -11,6 +11,13 @@
 
 Actions outside [-1, 1] by more than 1e-6, or not finite, raise ``ActionError``; within that
 tolerance they are clipped.
+
+The last action is in the observation, beyond SPEC Eq. 18-19: a command takes 80-120 ms (two or
+three control steps) to reach the actuators, and the measured surface positions do not show it
+before then. Without it, nothing in the next observation depends on the action just taken, so a
+one-step temporal-difference critic cannot learn what an action does: measured in training, the
+critics' Q varied 60 times more between states than between actions. With the last action in
+every frame, the 8-step window holds every command still in the delay line.
 """
 
 from __future__ import annotations
@@ -25,15 +32,16 @@ from jsbsim_env.core import N_STATE, CoreConfig, FlightCore, envelope_code, term
 GOAL_NAMES = ("roll_cmd_rad", "pitch_cmd_rad", "airspeed_eas_cmd_mps")
 GOAL_LOW = np.array([math.radians(-5.0), math.radians(-10.0), 8.0])
 GOAL_HIGH = np.array([math.radians(5.0), math.radians(10.0), 12.0])
-OBS_SIZE = N_STATE + len(GOAL_NAMES)
 ACTION_SIZE = 4
+OBS_SIZE = N_STATE + ACTION_SIZE + len(GOAL_NAMES)
 
 _DEG = math.degrees(1.0)
 # Scaled observation = (x - offset) / scale: angles and rates to tens of degrees, surfaces to their
-# travel, airspeed about 10 m/s, altitude about 10 km.
-OBS_OFFSET = np.array([10000.0, 0, 0, 0, 0, 0, 10.0, 0, 0, 0, 0, 0, 0.5, 0, 0, 10.0])
+# travel, airspeed about 10 m/s, altitude about 10 km; the last action as it is.
+OBS_OFFSET = np.array([10000.0, 0, 0, 0, 0, 0, 10.0, 0, 0, 0, 0, 0, 0.5, 0, 0, 0, 0, 0, 0, 10.0])
 OBS_SCALE = np.array([10000.0, 10 / _DEG, 10 / _DEG, 10 / _DEG, 10 / _DEG, 10 / _DEG, 2.0, 10 / _DEG, 10 / _DEG,
-                      30 / _DEG, 30 / _DEG, 20 / _DEG, 0.5, 10 / _DEG, 10 / _DEG, 2.0])
+                      30 / _DEG, 30 / _DEG, 20 / _DEG, 0.5, 1, 1, 1, 1, 10 / _DEG, 10 / _DEG, 2.0])
+LAST_ACTION_COLUMNS = slice(N_STATE, N_STATE + ACTION_SIZE)
 # Action -> physical command: command = ACTION_OFFSET + ACTION_SCALE * action.
 ACTION_SCALE = np.array([30.0, 30.0, 20.0, 0.5])
 ACTION_OFFSET = np.array([0.0, 0.0, 0.0, 0.5])
@@ -60,10 +68,18 @@ def command_to_action(command: np.ndarray) -> np.ndarray:
     return (np.asarray(command, dtype=float) - ACTION_OFFSET) / ACTION_SCALE
 
 
-def scale_observation(state: np.ndarray, goal: np.ndarray) -> np.ndarray:
-    """The network's observation (float32) from measured states (``core.STATE_NAMES``) and goals;
-    works on one (13,) + (3,) or on N x 13 + N x 3."""
-    return ((np.concatenate([state, goal], axis=-1) - OBS_OFFSET) / OBS_SCALE).astype(np.float32)
+def scale_observation(state: np.ndarray, last_action: np.ndarray, goal: np.ndarray) -> np.ndarray:
+    """The network's observation (float32) from measured states (``core.STATE_NAMES``), the last
+    action (in [-1, 1]) and goals; works on one (13,) + (4,) + (3,) or on N rows of each."""
+    raw = np.concatenate([state, last_action, goal], axis=-1)
+    return ((raw - OBS_OFFSET) / OBS_SCALE).astype(np.float32)
+
+
+def initial_last_action(measurement: np.ndarray) -> np.ndarray:
+    """The "last action" at the start of an episode: the measured actuator positions (rad, rad, rad,
+    throttle) as an action, which is the trim command the aircraft starts settled on."""
+    m = np.asarray(measurement, dtype=float)
+    return command_to_action(np.array([math.degrees(m[9]), math.degrees(m[10]), math.degrees(m[11]), m[12]]))
 
 
 REWARD_TERMS = ("penalty_roll", "penalty_pitch", "penalty_airspeed", "penalty_beta")
@@ -102,7 +118,7 @@ class TaskConfig:
     goal_hold_s: tuple[float, float] = (3.0, 10.0)  # each channel holds its goal this long, drawn uniformly
 
 
-_NO_GOAL_NOISE = [0.0, 0.0, 0.0]
+_NO_EXTRA_NOISE = [0.0] * (ACTION_SIZE + len(GOAL_NAMES))  # the last action and the goals are known exactly
 
 
 class AttitudeTaskBatch:
@@ -125,6 +141,7 @@ class AttitudeTaskBatch:
         self.steps = np.zeros(n, dtype=np.int64)
         self.interval_s = np.zeros(n)
         self._goal_rngs: list[np.random.Generator] = [np.random.default_rng() for _ in range(n)]
+        self.last_actions: list[list[float]] = [[0.0] * ACTION_SIZE for _ in range(n)]
         self._sensor_noise = self.config.core.sensor_noise
         self._act_scale, self._act_offset = ACTION_SCALE.tolist(), ACTION_OFFSET.tolist()
         self._obs_offset = OBS_OFFSET.tolist()
@@ -136,6 +153,7 @@ class AttitudeTaskBatch:
         core = self.cores[i]
         core.reset(seed, **overrides)
         self.states[i] = core.last_true_state = core.true_state()
+        self.last_actions[i] = initial_last_action(self.states[i]).tolist()
         self.interval_s[i] = core.setup.control_interval_s
         # Goals draw from their own stream of the episode's seed.
         self._goal_rngs[i] = grng = np.random.default_rng(core.rng.integers(2**63))
@@ -152,7 +170,7 @@ class AttitudeTaskBatch:
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """One control interval for every aircraft.
 
-        Returns observations (N x 16 float32), reward terms (N x 5: ``REWARD_TERMS`` then the
+        Returns observations (N x 20 float32), reward terms (N x 5: ``REWARD_TERMS`` then the
         reward), terminated and truncated flags, and termination codes (``core.TERMINATION_CAUSES``).
         The caller resets the aircraft whose episode ended.
         """
@@ -166,7 +184,8 @@ class AttitudeTaskBatch:
         codes = [0] * self.num_envs
         self.steps += 1
         for i, (core, a) in enumerate(zip(self.cores, rows)):
-            core.fly([o + k * min(max(x, -1.0), 1.0) for x, k, o in zip(a, self._act_scale, self._act_offset)])
+            a = self.last_actions[i] = [min(max(x, -1.0), 1.0) for x in a]
+            core.fly([o + k * x for x, k, o in zip(a, self._act_scale, self._act_offset)])
             self.states[i] = state = core.last_true_state = core.true_state()
             code = codes[i] = envelope_code(state, core.height_above_ground_m(), envelope)
             t = reward_terms(state, self._goal_lists[i])
@@ -206,9 +225,9 @@ class AttitudeTaskBatch:
 
     # ------------------------------------------------------------------ observations
     def _observation(self, i: int) -> list[float]:
-        """Scaled network observation of aircraft ``i`` (measured state and goal), as a list."""
-        raw = self.states[i] + self._goal_lists[i]
-        noise = self.noise[i] + _NO_GOAL_NOISE
+        """Scaled network observation of aircraft ``i`` (measured state, last action, goal), as a list."""
+        raw = self.states[i] + self.last_actions[i] + self._goal_lists[i]
+        noise = self.noise[i] + _NO_EXTRA_NOISE
         return [(x + n - o) * k for x, n, o, k in zip(raw, noise, self._obs_offset, self._obs_inv_scale)]
 
     def measurements(self) -> np.ndarray:
@@ -216,7 +235,7 @@ class AttitudeTaskBatch:
         return np.array(self.states) + np.array(self.noise)
 
     def observations(self) -> np.ndarray:
-        """Scaled network observations, N x 16 float32 (non-finite values of an ended episode as 0)."""
+        """Scaled network observations, N x 20 float32 (non-finite values of an ended episode as 0)."""
         return np.nan_to_num(np.array([self._observation(i) for i in range(self.num_envs)], dtype=np.float32))
 
 

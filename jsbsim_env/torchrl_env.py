@@ -27,7 +27,7 @@ def episode_seed(base_seed: int, env_index: int, episode: int) -> int:
 class SolarUAVAttitudeEnv(EnvBase):
     """Attitude tracking for the solar UAV, ``num_envs`` aircraft stepped together.
 
-    Keys: ``observation`` (num_envs, 16) float32, ``action`` (num_envs, 4) in [-1, 1],
+    Keys: ``observation`` (num_envs, 20) float32, ``action`` (num_envs, 4) in [-1, 1],
     ``reward`` (num_envs, 1), ``done``/``terminated``/``truncated`` (num_envs, 1), and
     ``reward_terms`` (num_envs, 4): the penalties of ``task.REWARD_TERMS``, with
     ``reward = 1 - reward_terms.sum(-1)``, and ``achieved`` (num_envs, 4): the true roll, pitch
@@ -110,7 +110,7 @@ class SolarUAVAttitudeEnv(EnvBase):
 def make_env(num_envs: int = 8, config: TaskConfig | None = None, seed: int = 0,
              window: int = OBSERVATION_WINDOW) -> TransformedEnv:
     """The training environment: the 8-step observation window (``observation`` becomes
-    (num_envs, window, 16), oldest first), a step counter and the episode reward sum."""
+    (num_envs, window, 20), oldest first), a step counter and the episode reward sum."""
     env = SolarUAVAttitudeEnv(num_envs, config, seed)
     return TransformedEnv(env, Compose(
         UnsqueezeTransform(dim=-2, in_keys=["observation"], out_keys=["observation"]),

@@ -17,6 +17,7 @@ from jsbsim_env.metrics import EpisodeRecorder, actuator_smoothness, rmse, smoot
 from jsbsim_env.task import (
     GOAL_HIGH,
     GOAL_LOW,
+    OBS_SIZE,
     ActionError,
     AttitudeTask,
     TaskConfig,
@@ -55,7 +56,7 @@ def test_torchrl_specs_plain_and_with_training_transforms():
     env = make_env(2, seed=3)
     check_env_specs(env)
     td = env.rollout(10, break_when_any_done=False)
-    assert td["next", "observation"].shape == (2, 10, 8, 16)
+    assert td["next", "observation"].shape == (2, 10, 8, OBS_SIZE)
     # The window holds the last 8 observations, oldest first.
     torch.testing.assert_close(td["next", "observation"][:, 3, -2], td["next", "observation"][:, 2, -1])
     assert td["next", "step_count"][:, -1].flatten().tolist() == [10, 10]
@@ -80,7 +81,7 @@ def test_gymnasium_env_passes_check_env():
     env = gym.make(jsbsim_env.ENV_ID)
     check_env(env.unwrapped, skip_render_check=True)
     obs, info = env.reset(seed=1)
-    assert obs.shape == (16,) and obs.dtype == np.float32 and "setup" in info
+    assert obs.shape == (OBS_SIZE,) and obs.dtype == np.float32 and "setup" in info
     obs, reward, _, _, info = env.step(np.zeros(4, np.float32))
     assert math.isclose(reward, 1.0 - sum(info[k] for k in ("penalty_roll", "penalty_pitch", "penalty_airspeed",
                                                              "penalty_beta")))

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import torch
 
-from jsbsim_env.task import OBS_SIZE, action_to_command
+from jsbsim_env.task import OBS_SIZE, AttitudeTask, TaskConfig, action_to_command
 from training.config import TrainConfig
 from training.policy import PolicyFileError, PolicyRuntime, export_onnx, load_policy
 from training.trainer import Trainer
@@ -88,3 +88,18 @@ def test_missing_shipped_controller_is_a_clear_error(monkeypatch, tmp_path):
     monkeypatch.setattr(policy, "shipped_policy_path", lambda: tmp_path / "absent.pt")
     with pytest.raises(PolicyFileError, match="no trained controller ships"):
         PolicyRuntime()
+
+
+def test_runtime_builds_the_environments_observation(policy_file):
+    """Flying from measurements (with its own last action) gives the same actions as flying from
+    the environment's observations."""
+    path, _ = policy_file
+    from_env, from_measurement = PolicyRuntime(path, backend="torch"), PolicyRuntime(path, backend="torch")
+    task = AttitudeTask(TaskConfig())
+    obs, _ = task.reset(4)
+    for _ in range(20):
+        a_env = from_env.act_scaled(obs)
+        command = from_measurement.act(task.batch.measurements()[0], task.batch.goals[0])
+        np.testing.assert_allclose(action_to_command(np.clip(a_env.astype(np.float64), -1, 1)), command, atol=1e-5)
+        obs, _, terminated, truncated, _ = task.step(np.clip(a_env.astype(np.float64), -1, 1))
+        assert not (terminated or truncated)

@@ -16,7 +16,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from jsbsim_env.task import OBS_SIZE, action_to_command, scale_observation
+from jsbsim_env.task import OBS_SIZE, action_to_command, initial_last_action, scale_observation
 from training.networks import ActorNet
 
 SHIPPED_POLICY = "solar_uav_policy.pt"  # in the training package, with its ONNX export beside it
@@ -32,7 +32,7 @@ def shipped_policy_path() -> Path:
 
 
 class DeterministicActor(nn.Module):
-    """Observation window (..., window, 16) -> action in [-1, 1]^4: tanh of the Gaussian's mean."""
+    """Observation window (..., window, 20) -> action in [-1, 1]^4: tanh of the Gaussian's mean."""
 
     def __init__(self, net: ActorNet):
         super().__init__()
@@ -87,6 +87,7 @@ class PolicyRuntime:
         self.window = int(self.meta.get("window", 8))
         self.backend = backend
         self._frames: deque[np.ndarray] = deque(maxlen=self.window)
+        self._last_action: np.ndarray | None = None  # fed back into the next observation
         if backend == "onnx":
             import onnxruntime as ort
 
@@ -101,11 +102,12 @@ class PolicyRuntime:
             raise ValueError(f"backend must be 'onnx' or 'torch', got {backend!r}")
 
     def reset(self) -> None:
-        """Forget the window (a new episode)."""
+        """Forget the window and the last action (a new episode)."""
         self._frames.clear()
+        self._last_action: np.ndarray | None = None
 
     def push(self, observation: np.ndarray) -> np.ndarray:
-        """Add one scaled observation; returns the window (window, 16), oldest first."""
+        """Add one scaled observation; returns the window (window, 20), oldest first."""
         obs = np.asarray(observation, dtype=np.float32).reshape(OBS_SIZE)
         if not self._frames:
             self._frames.extend([obs] * self.window)  # as CatFrames pads a new episode
@@ -124,8 +126,11 @@ class PolicyRuntime:
     def act(self, measurement: np.ndarray, goal: np.ndarray) -> np.ndarray:
         """Actuator command (aileron, elevator, rudder in deg, throttle) for a measured state
         (``core.STATE_NAMES``) and goal (roll, pitch in rad, EAS in m/s)."""
-        a = self.action(self.push(scale_observation(np.asarray(measurement), np.asarray(goal))))
-        return action_to_command(np.clip(a.astype(np.float64), -1.0, 1.0))
+        if self._last_action is None:
+            self._last_action = initial_last_action(measurement)
+        obs = scale_observation(np.asarray(measurement), self._last_action, np.asarray(goal))
+        self._last_action = np.clip(self.action(self.push(obs)).astype(np.float64), -1.0, 1.0)
+        return action_to_command(self._last_action)
 
     def update(self, dt_s: float, measurement: np.ndarray, setpoint: np.ndarray) -> np.ndarray:
         """``act`` under the shared attitude-controller interface (``jsbsim_env.controllers.base``);

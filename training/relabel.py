@@ -36,7 +36,7 @@ def relabel_goals(batch: TensorDictBase, fraction: float, spread: float,
 
     Args:
         batch: replay samples with ``observation`` and ``("next", "observation")`` windows
-            (B, window, 16), ``("next", "achieved")`` (B, 4), ``("next", "reward")`` (B, 1) and
+            (B, window, 20), ``("next", "achieved")`` (B, 4), ``("next", "reward")`` (B, 1) and
             ``("next", "terminated")`` (B, 1).
         fraction: share of the samples to relabel, in [0, 1].
         spread: new goal = achieved state + an offset drawn uniformly within +- ``spread`` times
