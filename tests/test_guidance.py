@@ -139,3 +139,24 @@ def test_gain_table_errors(tmp_path):
     bad.write_text("{not json")
     with pytest.raises(ValueError, match="malformed"):
         GainSchedule(bad)
+
+
+def test_stored_gain_table_is_what_the_tuning_gives():
+    """The shipped table comes from ``scripts/tune_pid.py``: re-tuning its first altitude (which starts
+    from the default gains) reproduces it, and every design point is stable with its margins."""
+    from dataclasses import asdict
+
+    from jsbsim_env.controllers import tuning
+    from jsbsim_env.controllers.pid import DESIGN_ALTITUDES_M, design_gains
+    from jsbsim_env.sim import Simulation
+
+    table = GainSchedule()
+    stored = table.at(DESIGN_ALTITUDES_M[0])
+    fresh = design_gains(Simulation(), DESIGN_ALTITUDES_M[0])
+    for name, value in asdict(fresh).items():
+        assert getattr(stored, name) == pytest.approx(value, rel=1e-6, abs=1e-9), name
+    plant = tuning.LinearPlant.at(Simulation(), 10_000.0, 10.0)
+    point = table.at(10_000.0)
+    for lateral, names in ((False, tuning.LONG_GAIN_NAMES), (True, tuning.LAT_GAIN_NAMES)):
+        gains = np.array([getattr(point, n) for n in names])
+        assert tuning.LoopDesign(plant, lateral).margins_ok(gains) < 1.0

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import asdict, astuple, dataclass, fields
+from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 
 import numpy as np
@@ -63,9 +63,10 @@ def design_gains(sim: Simulation, altitude_m: float, eas_mps: float = DESIGN_EAS
                  start: DesignPoint | None = None) -> DesignPoint:
     """Tune both blocks at one flight condition (``tuning``), from ``start``'s gains if given."""
     plant = tuning.LinearPlant.at(sim, altitude_m, eas_mps)
-    v = None if start is None else np.array(astuple(start)[:10])
-    long_gains = tuning.tune(tuning.LoopDesign(plant, lateral=False), None if v is None else v[:5])
-    lat_gains = tuning.tune(tuning.LoopDesign(plant, lateral=True), None if v is None else v[5:])
+    long_start = None if start is None else np.array([getattr(start, n) for n in tuning.LONG_GAIN_NAMES])
+    lat_start = None if start is None else np.array([getattr(start, n) for n in tuning.LAT_GAIN_NAMES])
+    long_gains = tuning.tune(tuning.LoopDesign(plant, lateral=False), long_start)
+    lat_gains = tuning.tune(tuning.LoopDesign(plant, lateral=True), lat_start)
     return DesignPoint(*map(float, long_gains), *map(float, lat_gains), plant.elevator_trim_deg, plant.throttle_trim,
                        plant.pitch_trim_deg, float(plant.b_long[0, 3]))
 

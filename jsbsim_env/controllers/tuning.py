@@ -47,7 +47,7 @@ NOISE_WEIGHT = 20.0  # cost per deg (or per 0.1 throttle) of noise-driven comman
 SIDESLIP_WEIGHT = 0.5  # cost per deg s of sideslip during the roll step, against roll ITAE
 
 # Longitudinal gains: pitch (deg per rad), pitch rate (deg per rad/s), pitch integral (deg per
-# rad s), EAS (throttle per m/s), EAS integral (throttle per m s).
+# rad s), EAS (throttle per m/s), EAS integral (throttle per m s). Names as in ``pid.DesignPoint``.
 LONG_GAIN_NAMES = ("k_pitch", "k_q", "k_pitch_i", "k_eas", "k_eas_i")
 LONG_START = np.array([150.0, 40.0, 30.0, 0.1, 0.02])
 # Lateral gains: roll (deg per rad), roll rate (deg per rad/s), roll integral (deg per rad s),
