@@ -51,7 +51,8 @@ class OptimSettings:
     gamma: float = _f(0.99, "discount (SPEC: 0.99)")
     tau: float = _f(0.005, "soft target update rate per gradient step (SPEC: 0.005)")
     alpha: float = _f(0.2, "entropy temperature, fixed (SPEC: 0.2), or the initial one with auto_alpha")
-    auto_alpha: bool = _f(False, "tune the temperature towards an entropy of -4 (SAC v2) instead of fixing it")
+    auto_alpha: bool = _f(False, "tune the temperature towards target_entropy (SAC v2) instead of fixing it")
+    target_entropy: float = _f(-4.0, "policy entropy the tuned temperature aims at (SAC v2: minus the action size)")
     updates_per_step: float = _f(1.0, "gradient steps per environment step (SPEC: 1)")
 
 

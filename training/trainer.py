@@ -81,7 +81,8 @@ class Trainer:
         # nn.LSTM cannot run under vmap, which SACLoss uses for the twin critics by default.
         self.loss = SACLoss(self.actor, critic, num_qvalue_nets=2, loss_function="l2", alpha_init=c.optim.alpha,
                             fixed_alpha=not c.optim.auto_alpha, action_spec=self.env.action_spec,
-                            deactivate_vmap=True)
+                            # Explicit: TorchRL's "auto" takes the size of the batched spec (8 x 4 here).
+                            target_entropy=c.optim.target_entropy, deactivate_vmap=True)
         self.loss.make_value_estimator(gamma=c.optim.gamma)
         self.target_update = SoftUpdate(self.loss, tau=c.optim.tau)
         self.actor_optim = torch.optim.Adam(self.loss.actor_network_params.flatten_keys().values(), lr=c.optim.lr)
