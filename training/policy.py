@@ -52,7 +52,13 @@ def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
                        initial_std=data["network"].get("initial_std", 1.0))
         prefix = "module.0.module."
         state = {k[len(prefix):]: v for k, v in data["actor"].items() if k.startswith(prefix)}
+        inputs = state["encoder.lstm.weight_ih_l0"].shape[1]
+        if inputs != OBS_SIZE:
+            raise PolicyFileError(f"{path} was trained on observations of {inputs} values and this version observes "
+                                  f"{OBS_SIZE} (the last action was added); train a new policy")
         net.load_state_dict(state)
+    except PolicyFileError:
+        raise
     except Exception as err:  # unpickling, missing keys and shape mismatches all mean the same here
         raise PolicyFileError(f"{path} is not a usable policy file: {err}") from err
     actor = DeterministicActor(net).eval()
