@@ -331,19 +331,19 @@ class FlightCore:
 
     def navigation(self) -> Navigation:
         """Position and velocity as a GNSS/INS would give them (true values)."""
-        f = self.sim.fdm
+        f, g = self.sim.fdm, self._get_state  # g: the cached accessors of ``_load``
         lat, lon = f["position/lat-geod-rad"], f["position/long-gc-rad"]
         if self._nav_origin is None:
             self._nav_origin = (lat, lon)
         lat0, lon0 = self._nav_origin
-        radius = EARTH_RADIUS_M + f["position/h-sl-meters"]
-        rho_ratio = f["atmosphere/rho-slugs_ft3"] / RHO0_SLUG_FT3
+        altitude_m = g[0]()
+        radius = EARTH_RADIUS_M + altitude_m
         return Navigation(
             north_m=(lat - lat0) * radius, east_m=(lon - lon0) * math.cos(lat0) * radius,
-            altitude_m=f["position/h-sl-meters"],
+            altitude_m=altitude_m,
             v_north_mps=f["velocities/v-north-fps"] * FT_TO_M, v_east_mps=f["velocities/v-east-fps"] * FT_TO_M,
-            v_down_mps=f["velocities/v-down-fps"] * FT_TO_M, tas_mps=f["velocities/vt-fps"] * FT_TO_M,
-            eas_to_tas=1.0 / math.sqrt(rho_ratio), heading_rad=f["attitude/psi-rad"],
+            v_down_mps=f["velocities/v-down-fps"] * FT_TO_M, tas_mps=g[6]() * FT_TO_M,
+            eas_to_tas=1.0 / math.sqrt(g[13]() / RHO0_SLUG_FT3), heading_rad=g[14](),
         )
 
     def envelope_violation(self) -> str | None:

@@ -221,7 +221,7 @@ class LoopDesign:
     def closed(self, gains: np.ndarray, delay_steps: int = DESIGN_DELAY_STEPS, factor: float = 1.0):
         return closed_loop(self.ad, self.bd, self.c_out, self.controller(gains).scaled(factor), delay_steps)
 
-    def margins_ok(self, gains: np.ndarray) -> float:
+    def worst_spectral_radius(self, gains: np.ndarray) -> float:
         """Largest spectral radius over the nominal and the robustness cases."""
         return max(spectral_radius(self.closed(gains)[0]),
                    spectral_radius(self.closed(gains, factor=ROBUST_GAIN_FACTOR)[0]),
@@ -260,7 +260,7 @@ def tune(design: LoopDesign, start: np.ndarray | None = None, max_evaluations: i
 
     def objective(z: np.ndarray) -> float:
         g = unpack(z)
-        radius = design.margins_ok(g)
+        radius = design.worst_spectral_radius(g)
         if not np.isfinite(radius) or radius >= 0.999:
             return 1e6 * (1.0 + radius)
         return design.cost(g)
@@ -271,6 +271,6 @@ def tune(design: LoopDesign, start: np.ndarray | None = None, max_evaluations: i
     result = minimize(objective, z0, method="Nelder-Mead",
                       options={"maxfev": max_evaluations, "xatol": 1e-3, "fatol": 1e-4, "adaptive": True})
     gains = unpack(result.x)
-    if design.margins_ok(gains) >= 0.999:
+    if design.worst_spectral_radius(gains) >= 0.999:
         raise RuntimeError("PID tuning found no gains meeting the robustness cases")
     return gains
