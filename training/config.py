@@ -50,8 +50,9 @@ class OptimSettings:
     lr: float = _f(3e-4, "Adam learning rate of actor and critics (SPEC: 3e-4)")
     gamma: float = _f(0.99, "discount (SPEC: 0.99)")
     tau: float = _f(0.005, "soft target update rate per gradient step (SPEC: 0.005)")
-    alpha: float = _f(0.2, "entropy temperature, fixed (SPEC: 0.2), or the initial one with auto_alpha")
-    auto_alpha: bool = _f(False, "tune the temperature towards target_entropy (SAC v2) instead of fixing it")
+    alpha: float = _f(0.2, "entropy temperature: the initial one with auto_alpha, else fixed (SPEC: 0.2 fixed)")
+    auto_alpha: bool = _f(True, "tune the temperature towards target_entropy (SAC v2); false fixes it at alpha "
+                                "as the paper did, which does not learn with rewards in [0, 1] (README)")
     target_entropy: float = _f(-4.0, "policy entropy the tuned temperature aims at (SAC v2: minus the action size)")
     updates_per_step: float = _f(1.0, "gradient steps per environment step (SPEC: 1)")
 
