@@ -15,12 +15,14 @@ import time
 from pathlib import Path
 
 from training.config import TrainConfig
+from training.provenance import append_session
 from training.trainer import Trainer
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    # Each setting's help already names its default (the parser's own defaults are None, so that
+    # a resume can tell which settings were given).
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--resume", type=Path, metavar="RUN_DIR", help="continue the run in this folder")
     parser.add_argument("--run-name", help="folder name under --log.run_root (default: seed and time)")
     TrainConfig.add_arguments(parser)
@@ -34,6 +36,8 @@ def main(argv: list[str] | None = None) -> int:
         name = args.run_name or f"sac_seed{config.seed}_{time.strftime('%Y%m%d-%H%M%S')}"
         run_dir = Path(config.log.run_root) / name
     trainer = Trainer(config, run_dir, resume=args.resume is not None)
+    append_session(run_dir, ["python", "scripts/train_torchrl.py", *(sys.argv[1:] if argv is None else argv)],
+                   trainer.counters.frames)
     print(f"run folder: {run_dir}", file=sys.stderr)
     last = trainer.train()
     print(json.dumps({"run_dir": str(run_dir), **last}, indent=2))

@@ -109,6 +109,30 @@ def test_train_script_help_lists_the_settings():
         assert option in done.stdout
 
 
+def test_train_script_records_each_session_for_the_shipped_record(tmp_path):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("train_torchrl", SCRIPTS / "train_torchrl.py")
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    tiny = ["--seed", "3", "--env.num_envs", "4", "--collector.frames_per_batch", "32",
+            "--collector.init_random_frames", "64", "--buffer.capacity", "5000", "--buffer.batch_size", "16",
+            "--network.lstm_hidden", "8", "--network.mlp_hidden", "16", "--log.eval_every_frames", "96",
+            "--log.eval_episodes", "2", "--log.eval_max_steps", "10", "--log.checkpoint_every_frames", "96",
+            "--log.log_every_frames", "32", "--log.progress", "false", "--log.run_root", str(tmp_path),
+            "--run-name", "run"]
+    assert script.main([*tiny, "--collector.total_frames", "96"]) == 0
+    run = tmp_path / "run"
+    assert script.main(["--resume", str(run), "--collector.total_frames", "128"]) == 0
+    from training.provenance import git_commit, read_sessions
+
+    first, second = read_sessions(run)
+    assert first["command"].startswith("python scripts/train_torchrl.py --seed 3") and first["frames_at_start"] == 0
+    assert "--resume" in second["command"] and second["frames_at_start"] == 96
+    assert first["commit"] == git_commit()[0]
+    assert int(_rows(run)[-1]["frames"]) == 128
+
+
 def test_a_second_trainer_on_a_live_run_is_refused(tmp_path):
     run = tmp_path / "run"
     first = Trainer(tiny_config(96), run)

@@ -1,0 +1,45 @@
+"""Where a run came from: each training session appends one line to ``RUN_DIR/sessions.jsonl``
+with the command, the commit (and whether the tree had uncommitted changes) and the step count it
+started at, so a shipped policy can name the exact commands and commits that produced it.
+"""
+
+from __future__ import annotations
+
+import json
+import shlex
+import subprocess
+import time
+from pathlib import Path
+
+SESSIONS_FILE = "sessions.jsonl"
+REPO_ROOT = Path(__file__).resolve().parents[1]
+
+
+def git_commit(repo: Path = REPO_ROOT) -> tuple[str | None, bool]:
+    """The checked-out commit and whether tracked files differ from it; (None, False) outside git."""
+    def git(*args: str) -> subprocess.CompletedProcess:
+        return subprocess.run(["git", *args], cwd=repo, capture_output=True, text=True, check=False)
+
+    head = git("rev-parse", "HEAD")
+    if head.returncode != 0:
+        return None, False
+    dirty = bool(git("status", "--porcelain", "--untracked-files=no").stdout.strip())
+    return head.stdout.strip(), dirty
+
+
+def append_session(run_dir: Path | str, argv: list[str], frames: int) -> dict:
+    """Record one training session of the run in ``run_dir``; returns the record."""
+    commit, dirty = git_commit()
+    record = {"started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "command": shlex.join(argv),
+              "commit": commit, "dirty": dirty, "frames_at_start": int(frames)}
+    with (Path(run_dir) / SESSIONS_FILE).open("a") as fh:
+        fh.write(json.dumps(record) + "\n")
+    return record
+
+
+def read_sessions(run_dir: Path | str) -> list[dict]:
+    """The run's session records, oldest first ([] for a run that has none)."""
+    path = Path(run_dir) / SESSIONS_FILE
+    if not path.exists():
+        return []
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
