@@ -2,12 +2,17 @@
 over the runs given (one per seed), from their ``progress.csv``.
 
     python scripts/plot_training.py runs/sac_seed0 runs/sac_seed1 runs/sac_seed2 --out fig8.png
+
+It also prints, per run, the training wall-clock time, the final evaluation return (the mean of
+the last ``--final-evals`` evaluations, since one evaluation is noisy) and the environment steps
+at which the evaluation return first reached 0.9 of that final value.
 """
 
 from __future__ import annotations
 
 import argparse
 import csv
+import json
 from pathlib import Path
 
 import numpy as np
@@ -18,11 +23,30 @@ def load_curve(run_dir: Path, key: str) -> tuple[np.ndarray, np.ndarray]:
     return np.array([float(r["frames"]) for r in rows]), np.array([float(r[key]) for r in rows])
 
 
+def run_summary(run_dir: Path, final_evals: int = 3) -> dict:
+    """Wall-clock time, final evaluation return and the steps to 0.9 of it, from ``progress.csv``."""
+    rows = list(csv.DictReader((run_dir / "progress.csv").open()))
+    if not rows:
+        raise ValueError(f"{run_dir}/progress.csv has no rows yet")
+    frames, evals = load_curve(run_dir, "eval_return_norm")
+    summary = {"run": str(run_dir), "frames": int(rows[-1]["frames"]), "updates": int(rows[-1]["updates"]),
+               "wall_h": float(rows[-1]["wall_s"]) / 3600.0}
+    if evals.size:
+        final = float(evals[-final_evals:].mean())
+        reached = np.nonzero(evals >= 0.9 * final)[0]
+        summary.update(final_eval_return=final, best_eval_return=float(evals.max()),
+                       best_eval_frames=int(frames[np.argmax(evals)]),
+                       frames_to_90pct_of_final=int(frames[reached[0]]) if reached.size else None)
+    return summary
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("runs", type=Path, nargs="+")
     parser.add_argument("--out", type=Path, default=Path("fig8_training.png"))
+    parser.add_argument("--final-evals", type=int, default=3, help="evaluations averaged into the final return")
     args = parser.parse_args()
+    print(json.dumps([run_summary(r, args.final_evals) for r in args.runs], indent=2))
     import matplotlib
 
     matplotlib.use("Agg")

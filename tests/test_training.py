@@ -37,6 +37,16 @@ def tiny_config(total_frames: int = 192) -> TrainConfig:
     return c
 
 
+def _script(name: str):
+    """A script under scripts/ imported as a module, to call its functions."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(name, SCRIPTS / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
 def _rows(run_dir: Path) -> list[dict]:
     return list(csv.DictReader((run_dir / "progress.csv").open()))
 
@@ -110,11 +120,7 @@ def test_train_script_help_lists_the_settings():
 
 
 def test_train_script_records_each_session_for_the_shipped_record(tmp_path):
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("train_torchrl", SCRIPTS / "train_torchrl.py")
-    script = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(script)
+    script = _script("train_torchrl")
     tiny = ["--seed", "3", "--env.num_envs", "4", "--collector.frames_per_batch", "32",
             "--collector.init_random_frames", "64", "--buffer.capacity", "5000", "--buffer.batch_size", "16",
             "--network.lstm_hidden", "8", "--network.mlp_hidden", "16", "--log.eval_every_frames", "96",
@@ -142,3 +148,21 @@ def test_a_second_trainer_on_a_live_run_is_refused(tmp_path):
     import gc
 
     gc.collect()
+
+
+def test_training_summary_finds_the_steps_to_90_percent_of_the_final_return(tmp_path):
+    from training.trainer import CSV_FIELDS
+
+    script = _script("plot_training")
+    evals = {10_000: 0.1, 20_000: 0.5, 30_000: 0.8, 40_000: 0.9, 50_000: 1.0, 60_000: 1.0}
+    with (tmp_path / "progress.csv").open("w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=CSV_FIELDS)
+        w.writeheader()
+        for frames in range(5_000, 65_000, 5_000):  # rows without an evaluation in between
+            w.writerow({"frames": frames, "updates": frames - 5_000, "wall_s": frames / 10.0,
+                        "eval_return_norm": evals.get(frames, "")})
+    summary = script.run_summary(tmp_path, final_evals=3)
+    assert summary["final_eval_return"] == pytest.approx((0.9 + 1.0 + 1.0) / 3)
+    assert summary["frames_to_90pct_of_final"] == 40_000  # 0.8 < 0.87 <= 0.9
+    assert summary["wall_h"] == pytest.approx(6_000 / 3600) and summary["updates"] == 55_000
+    assert summary["best_eval_return"] == 1.0 and summary["best_eval_frames"] == 50_000

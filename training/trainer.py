@@ -210,9 +210,12 @@ class Trainer:
         if remaining <= 0:
             return {}
         frames_per_batch = c.collector.frames_per_batch - c.collector.frames_per_batch % c.env.num_envs
+        # The collector takes random steps in whole batches; rounding up here keeps it from warning.
+        random_frames = frames_per_batch * math.ceil(max(0, c.collector.init_random_frames - self.counters.frames)
+                                                     / frames_per_batch)
         collector = Collector(
             self.env, self.actor, frames_per_batch=frames_per_batch, total_frames=remaining,
-            init_random_frames=max(0, c.collector.init_random_frames - self.counters.frames),
+            init_random_frames=random_frames,
             exploration_type=ExplorationType.RANDOM,
             # The LSTMs read a window of observations and keep no state between steps.
             auto_register_policy_transforms=False,
