@@ -57,7 +57,8 @@ def test_tiny_run_writes_logs_checkpoint_and_policy(tmp_path):
     assert json.loads((run / "config.json").read_text())["network"]["lstm_hidden"] == 8
     rows = _rows(run)
     assert int(rows[-1]["frames"]) == 192
-    assert int(rows[-1]["updates"]) == 192 - 64  # one update per step after the random warm-up
+    # updates_per_step updates per step after the random warm-up
+    assert int(rows[-1]["updates"]) == (192 - 64) * tiny_config().optim.updates_per_step
     assert any(r["eval_return_norm"] for r in rows)
     assert any(p.name.startswith("events") for p in (run / "tb").iterdir())
     data = load_checkpoint(run / "checkpoint.pt")
@@ -77,7 +78,7 @@ def test_resume_continues_counting_with_the_buffer(tmp_path):
     resumed.train()
     frames = [int(r["frames"]) for r in _rows(run)]
     assert frames == sorted(frames) and frames[-1] == 192
-    assert load_checkpoint(run / "checkpoint.pt")["counters"]["updates"] == 192 - 64
+    assert load_checkpoint(run / "checkpoint.pt")["counters"]["updates"] == (192 - 64) * tiny_config().optim.updates_per_step
 
 
 def test_corrupt_or_mismatched_checkpoints_give_clear_errors(tmp_path):

@@ -54,7 +54,8 @@ class OptimSettings:
     auto_alpha: bool = _f(True, "tune the temperature towards target_entropy (SAC v2); false fixes it at alpha "
                                 "as the paper did, which does not learn with rewards in [0, 1] (README)")
     target_entropy: float = _f(-4.0, "policy entropy the tuned temperature aims at (SAC v2: minus the action size)")
-    updates_per_step: float = _f(1.0, "gradient steps per environment step (SPEC: 1)")
+    updates_per_step: float = _f(0.25, "gradient steps per environment step (SPEC: 1; 0.25 learns faster in "
+                                       "steps and in time here, README)")
 
 
 @dataclass
