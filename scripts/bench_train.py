@@ -62,8 +62,9 @@ def main() -> None:
         "update_ms": statistics.median(update_ms),
         "collect_env_steps_per_s": statistics.median(collect_rates),
     }
-    # One update per environment step (SPEC): the default run's time per step and in total.
-    per_step_s = result["update_ms"] / 1e3 + 1.0 / result["collect_env_steps_per_s"]
+    # The default run's time per environment step and in total (evaluations not counted).
+    result["updates_per_step"] = config.optim.updates_per_step
+    per_step_s = config.optim.updates_per_step * result["update_ms"] / 1e3 + 1.0 / result["collect_env_steps_per_s"]
     result["default_run_hours_estimate"] = per_step_s * config.collector.total_frames / 3600
     print(json.dumps(result, indent=2) if args.json else "\n".join(f"{k:28s} {v}" for k, v in result.items()))
 

@@ -1,7 +1,9 @@
-"""Fly the shipped controller (or ``--policy PATH``) on the fixed evaluation suite and print the metrics.
+"""Fly the shipped controller (or ``--policy PATH``, or the PID baseline) on the fixed evaluation
+suite and print the metrics.
 
     python scripts/evaluate.py --json                   # metrics as JSON
     python scripts/evaluate.py --plots results/eval     # and the Fig. 9 time histories
+    python scripts/evaluate.py --controller pid --json  # the gain-scheduled PID on the same suite
 """
 
 from __future__ import annotations
@@ -12,12 +14,15 @@ from pathlib import Path
 
 import torch
 
+from jsbsim_env.controllers.pid import PIDAttitudeController
 from training.evaluate import evaluate
 from training.policy import PolicyRuntime
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--controller", choices=("policy", "pid"), default="policy",
+                        help="the trained policy, or the gain-scheduled PID baseline")
     parser.add_argument("--policy", type=Path, help="policy file (default: the shipped controller)")
     parser.add_argument("--episodes", type=int, default=50, help="seeded training-style episodes")
     parser.add_argument("--plots", type=Path, help="folder for the doublet plots")
@@ -25,9 +30,15 @@ def main() -> None:
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
     torch.set_num_threads(1)
-    runtime = PolicyRuntime(args.policy, backend=args.backend)
-    results = evaluate(runtime, episodes=args.episodes, plot_dir=args.plots, progress=not args.json)
-    results["policy"] = {k: v for k, v in runtime.meta.items() if k != "network"}
+    if args.controller == "pid":
+        controller = PIDAttitudeController()
+    else:
+        controller = PolicyRuntime(args.policy, backend=args.backend)
+    results = evaluate(controller, episodes=args.episodes, plot_dir=args.plots, progress=not args.json)
+    if args.controller == "pid":
+        results["controller"] = {"name": "gain-scheduled PID"}
+    else:
+        results["controller"] = {"name": "policy", **{k: v for k, v in controller.meta.items() if k != "network"}}
     print(json.dumps(results, indent=2, default=float))
 
 

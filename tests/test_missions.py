@@ -73,3 +73,19 @@ def test_mission_metrics_on_known_signals():
     assert m["smoothness_throttle"] == pytest.approx(0.0, abs=1e-15)
     half = MissionResult(RouteConfig(), arrays, None).metrics(0.0, 20.0)
     assert half["rmse_roll_deg"] == pytest.approx(0.5)
+
+
+def test_pid_on_the_policy_evaluation_suite():
+    """The evaluation suite flies any controller of the shared interface: the PID follows every
+    doublet step at 5,000 m closely and flies disturbed training-style episodes to the end."""
+    from training.evaluate import doublet_runs, evaluate
+
+    doublets = doublet_runs(PIDAttitudeController(), altitudes_m=(5000.0,))["5000m"]
+    assert not doublets["ended_early"]
+    assert max(doublets["steady_state_error_roll_deg"]) < 0.5
+    assert max(doublets["steady_state_error_pitch_deg"]) < 0.5
+    assert max(doublets["steady_state_error_airspeed_eas_mps"]) < 0.5
+    assert max(doublets["settling_time_90_s_roll_deg"]) < 8.0 and doublets["rmse_beta_deg"] < 2.0
+    episodes = evaluate(PIDAttitudeController(), episodes=2)["episodes"]
+    assert episodes["ended_early"] == 0 and episodes["mean_length"] == 500
+    assert episodes["mean_return_norm"] > 0.4  # random actions score 0.13

@@ -1,4 +1,6 @@
-"""Fixed evaluation suite of a trained controller (SPEC section 4 item 2 and training-style episodes).
+"""Fixed evaluation suite of an attitude controller (SPEC section 4 item 2 and training-style
+episodes): the trained policy, or any controller of the shared interface (``--controller pid``),
+on identical episodes.
 
 1. Doublets (Fig. 9) at 500 m, 5,000 m and 15,000 m, EAS 10 m/s, no delay, noise, turbulence or
    parameter change, from a slightly perturbed trimmed start. The references, one channel at a time:
@@ -25,10 +27,10 @@ from pathlib import Path
 
 import numpy as np
 
+from jsbsim_env.controllers.base import AttitudeController
 from jsbsim_env.core import CoreConfig, termination_reason
 from jsbsim_env.metrics import EpisodeRecorder
-from jsbsim_env.task import AttitudeTaskBatch, TaskConfig, action_to_command
-from training.policy import PolicyRuntime
+from jsbsim_env.task import AttitudeTaskBatch, TaskConfig, action_to_command, command_to_action
 
 DOUBLET_ALTITUDES_M = (500.0, 5000.0, 15000.0)
 DOUBLET_END_S = 80.0
@@ -47,22 +49,23 @@ def doublet_goal(time_s: float) -> np.ndarray:
     return goal
 
 
-def fly(runtime: PolicyRuntime, batch: AttitudeTaskBatch, seed: int, steps: int, goal_fn=None,
+def fly(controller: AttitudeController, batch: AttitudeTaskBatch, seed: int, steps: int, goal_fn=None,
         **overrides) -> tuple[EpisodeRecorder, dict]:
-    """One episode of aircraft 0 of ``batch`` under ``runtime``; ``goal_fn(time_s)`` scripts the goal."""
-    runtime.reset()
-    obs = batch.reset_one(0, seed, **overrides)
+    """One episode of aircraft 0 of ``batch`` under ``controller``, which sees only the measured
+    state and the goal; ``goal_fn(time_s)`` scripts the goal."""
+    controller.reset()
+    batch.reset_one(0, seed, **overrides)
     core = batch.cores[0]
     rec = EpisodeRecorder()
     total, end = 0.0, {"terminated": False, "truncated": False, "reason": "", "steps": 0}
     for k in range(steps):
         if goal_fn is not None:
             batch.set_goal(0, goal_fn(core.time_s))
-            obs = batch.observations()[0]
         goal = batch.goals[0].copy()
-        action = np.clip(runtime.act_scaled(obs).astype(np.float64), -1.0, 1.0)
-        obs_all, terms, terminated, truncated, codes = batch.step(action[None])
-        obs = obs_all[0]
+        # The controller knows its nominal interval, as a flight computer knows its loop rate.
+        command = controller.update(core.setup.control_interval_s, batch.measurements()[0], goal)
+        action = np.clip(command_to_action(command), -1.0, 1.0)
+        _, terms, terminated, truncated, codes = batch.step(action[None])
         total += terms[0, 4]
         rec.record(core.time_s, batch.states[0], goal, action_to_command(action), terms[0, :4])
         end["steps"] = k + 1
@@ -108,7 +111,7 @@ def step_response_metrics(rec: EpisodeRecorder) -> dict:
     return out
 
 
-def doublet_runs(runtime: PolicyRuntime, altitudes_m=DOUBLET_ALTITUDES_M, plot_dir: Path | None = None,
+def doublet_runs(controller: AttitudeController, altitudes_m=DOUBLET_ALTITUDES_M, plot_dir: Path | None = None,
                  prefix: str = "doublets") -> dict:
     """SPEC section 4 item 2: the scripted doublets from a slightly perturbed start at each altitude,
     no delay, noise or perturbation of the aircraft. Returns metrics per altitude; writes the
@@ -119,7 +122,7 @@ def doublet_runs(runtime: PolicyRuntime, altitudes_m=DOUBLET_ALTITUDES_M, plot_d
     batch = AttitudeTaskBatch(1, TaskConfig(core=ideal))
     steps = int(DOUBLET_END_S / 0.05)
     for altitude in altitudes_m:
-        rec, end = fly(runtime, batch, seed=int(altitude), steps=steps, goal_fn=doublet_goal, altitude_m=altitude,
+        rec, end = fly(controller, batch, seed=int(altitude), steps=steps, goal_fn=doublet_goal, altitude_m=altitude,
                        airspeed_eas_mps=10.0)
         results[f"{altitude:.0f}m"] = {**rec.tracking_metrics(), **step_response_metrics(rec),
                                        "ended_early": end["terminated"], "termination": end["reason"]}
@@ -130,10 +133,10 @@ def doublet_runs(runtime: PolicyRuntime, altitudes_m=DOUBLET_ALTITUDES_M, plot_d
     return results
 
 
-def evaluate(runtime: PolicyRuntime, episodes: int = 50, plot_dir: Path | None = None,
+def evaluate(controller: AttitudeController, episodes: int = 50, plot_dir: Path | None = None,
              progress: bool = False) -> dict:
     """Run the whole suite; returns the metrics (and writes the Fig. 9 plots to ``plot_dir``)."""
-    results: dict = {"doublets": doublet_runs(runtime, DOUBLET_ALTITUDES_M, plot_dir), "episodes": {}}
+    results: dict = {"doublets": doublet_runs(controller, DOUBLET_ALTITUDES_M, plot_dir), "episodes": {}}
     batch = AttitudeTaskBatch(1, TaskConfig())
     rows, early, reasons = [], 0, []
     iterator = range(episodes)
@@ -142,7 +145,7 @@ def evaluate(runtime: PolicyRuntime, episodes: int = 50, plot_dir: Path | None =
 
         iterator = tqdm(iterator, desc="episodes")
     for k in iterator:
-        rec, end = fly(runtime, batch, seed=EVAL_EPISODE_SEED + k, steps=batch.config.core.max_steps)
+        rec, end = fly(controller, batch, seed=EVAL_EPISODE_SEED + k, steps=batch.config.core.max_steps)
         rows.append({**rec.tracking_metrics(), "return_norm": end["return"] / batch.config.core.max_steps,
                      "length": end["steps"]})
         if end["terminated"]:
