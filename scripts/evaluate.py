@@ -29,6 +29,8 @@ def main() -> None:
     parser.add_argument("--backend", choices=("onnx", "torch"), default="onnx")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
+    if args.controller == "pid" and (args.policy or args.backend != "onnx"):
+        parser.error("--policy and --backend are for --controller policy")
     torch.set_num_threads(1)
     if args.controller == "pid":
         controller = PIDAttitudeController()

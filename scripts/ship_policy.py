@@ -4,7 +4,8 @@ where it came from (run command, seed, commit, configuration, evaluation figures
     python scripts/ship_policy.py runs/<name> --episodes 50
 
 The commands and commits come from the run's ``sessions.jsonl`` (written by every training
-session); ``--command`` and ``--commit`` stand in for a run that has none.
+session); ``--command`` and ``--commit`` give the first session of a run that started before
+sessions were recorded.
 """
 
 from __future__ import annotations
@@ -30,18 +31,23 @@ def main() -> None:
     parser.add_argument("--commit", help="the commit it was trained at, for a run without sessions.jsonl")
     parser.add_argument("--episodes", type=int, default=50)
     args = parser.parse_args()
-    sessions = read_sessions(args.run_dir)
-    if not sessions:
-        if not (args.command and args.commit):
-            parser.error(f"{args.run_dir} has no sessions.jsonl: give --command and --commit")
-        sessions = [{"command": args.command, "commit": args.commit, "frames_at_start": 0}]
     torch.set_num_threads(1)
+    source = args.run_dir / "best_policy.pt"
+    actor, meta = load_policy(source)  # a clear error for a missing or broken file, before anything is copied
+    sessions = read_sessions(args.run_dir)
+    recorded_from_start = bool(sessions) and sessions[0]["frames_at_start"] == 0
+    if recorded_from_start and (args.command or args.commit):
+        parser.error(f"{args.run_dir}/sessions.jsonl records the whole run: --command and --commit are not needed")
+    if not recorded_from_start:
+        if not (args.command and args.commit):
+            parser.error(f"{args.run_dir}/sessions.jsonl does not record the run's first session: "
+                         "give its --command and --commit")
+        sessions.insert(0, {"command": args.command, "commit": args.commit, "dirty": None, "frames_at_start": 0})
+    sessions = [s for s in sessions if s["frames_at_start"] < meta["frames"]]  # those that trained this policy
     SHIPPED_DIR.mkdir(parents=True, exist_ok=True)
     target = SHIPPED_DIR / SHIPPED_POLICY
-    shutil.copyfile(args.run_dir / "best_policy.pt", target)
-    actor, meta = load_policy(target)
+    shutil.copyfile(source, target)
     export_onnx(actor, target.with_suffix(".onnx"), int(meta["window"]))
-    sessions = [s for s in sessions if s["frames_at_start"] < meta["frames"]]  # those that trained this policy
     results = evaluate(PolicyRuntime(target), episodes=args.episodes, plot_dir=None)
     record = {
         "command": sessions[0]["command"], "commit": sessions[0]["commit"], "sessions": sessions,

@@ -1,4 +1,4 @@
-"""Train the recurrent SAC attitude controller (SPEC section 3 defaults).
+"""Train the recurrent SAC attitude controller (defaults: SPEC section 3, with the changes the README gives).
 
     python scripts/train_torchrl.py                         # default run, folder runs/<name>
     python scripts/train_torchrl.py --seed 1 --collector.total_frames 50000

@@ -90,6 +90,33 @@ def test_missing_shipped_controller_is_a_clear_error(monkeypatch, tmp_path):
         PolicyRuntime()
 
 
+def test_ship_policy_needs_the_runs_first_command_and_commit(policy_file, tmp_path):
+    """A run whose sessions.jsonl misses its first session (or has none) is refused before the
+    shipped files are touched."""
+    import json
+    import shutil
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from training.provenance import SESSIONS_FILE
+
+    path, _ = policy_file
+    run = tmp_path / "run"
+    run.mkdir()
+    shutil.copyfile(path, run / "best_policy.pt")
+    script = Path(__file__).resolve().parents[1] / "scripts" / "ship_policy.py"
+    shipped = [p.stat().st_mtime_ns for p in sorted(Path(script).parents[1].glob("training/shipped/*"))]
+    resumed_only = json.dumps({"command": "python scripts/train_torchrl.py --resume r", "commit": "abc",
+                               "dirty": False, "frames_at_start": 5000})
+    for sessions in ("", resumed_only + "\n"):
+        (run / SESSIONS_FILE).write_text(sessions)
+        done = subprocess.run([sys.executable, str(script), str(run)], capture_output=True, text=True,
+                              check=False, timeout=120)
+        assert done.returncode == 2 and "give its --command and --commit" in done.stderr
+    assert [p.stat().st_mtime_ns for p in sorted(Path(script).parents[1].glob("training/shipped/*"))] == shipped
+
+
 def test_runtime_builds_the_environments_observation(policy_file):
     """Flying from measurements (with its own last action) gives the same actions as flying from
     the environment's observations."""

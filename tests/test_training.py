@@ -155,7 +155,7 @@ def test_training_summary_finds_the_steps_to_90_percent_of_the_final_return(tmp_
     from training.trainer import CSV_FIELDS
 
     script = _script("plot_training")
-    evals = {10_000: 0.1, 20_000: 0.5, 30_000: 0.8, 40_000: 0.9, 50_000: 1.0, 60_000: 1.0}
+    evals = {10_000: 0.4, 20_000: 0.5, 30_000: 0.8, 40_000: 0.9, 50_000: 1.0, 60_000: 1.0}
     with (tmp_path / "progress.csv").open("w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=CSV_FIELDS)
         w.writeheader()
@@ -165,5 +165,8 @@ def test_training_summary_finds_the_steps_to_90_percent_of_the_final_return(tmp_
     summary = script.run_summary(tmp_path, final_evals=3)
     assert summary["final_eval_return"] == pytest.approx((0.9 + 1.0 + 1.0) / 3)
     assert summary["frames_to_90pct_of_final"] == 40_000  # 0.8 < 0.87 <= 0.9
+    assert summary["frames_to_90pct_of_gain"] == 50_000  # 0.4 + 0.9 * (0.967 - 0.4) = 0.91
+    with pytest.raises(ValueError, match="at least 1"):
+        script.run_summary(tmp_path, final_evals=0)
     assert summary["wall_h"] == pytest.approx(6_000 / 3600) and summary["updates"] == 55_000
     assert summary["best_eval_return"] == 1.0 and summary["best_eval_frames"] == 50_000

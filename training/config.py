@@ -1,6 +1,6 @@
 """Typed training configuration with command-line overrides.
 
-Every field has a default from SPEC section 3 and a help line; ``TrainConfig.from_args`` turns
+Every field has a default (SPEC section 3, except where its help says why not) and a help line; ``TrainConfig.from_args`` turns
 them into ``--group.field value`` options (``--help`` lists them), and the full configuration is
 written as JSON with each run.
 """
@@ -32,7 +32,8 @@ class EnvSettings:
 class CollectorSettings:
     total_frames: int = _f(200_000, "environment steps to train for (SPEC: converged in about 0.2 M)")
     frames_per_batch: int = _f(64, "environment steps collected between update rounds")
-    init_random_frames: int = _f(5_000, "steps with uniformly random actions before learning starts")
+    init_random_frames: int = _f(5_000, "steps with uniformly random actions before learning starts (rounded up "
+                                        "to whole batches)")
 
 
 @dataclass
@@ -52,10 +53,10 @@ class OptimSettings:
     tau: float = _f(0.005, "soft target update rate per gradient step (SPEC: 0.005)")
     alpha: float = _f(0.2, "entropy temperature: the initial one with auto_alpha, else fixed (SPEC: 0.2 fixed)")
     auto_alpha: bool = _f(True, "tune the temperature towards target_entropy (SAC v2); false fixes it at alpha "
-                                "as the paper did, which does not learn with rewards in [0, 1] (README)")
+                                "as the paper did, which did not learn in our runs (README)")
     target_entropy: float = _f(-4.0, "policy entropy the tuned temperature aims at (SAC v2: minus the action size)")
-    updates_per_step: float = _f(0.25, "gradient steps per environment step (SPEC: 1; 0.25 learns faster in "
-                                       "steps and in time here, README)")
+    updates_per_step: float = _f(0.25, "gradient steps per environment step (SPEC: 1; 0.25 learns faster "
+                                       "per hour and per gradient step, README)")
 
 
 @dataclass

@@ -1,6 +1,6 @@
 """Fixed evaluation suite of an attitude controller (SPEC section 4 item 2 and training-style
-episodes): the trained policy, or any controller of the shared interface (``--controller pid``),
-on identical episodes.
+episodes): the trained policy, or any controller of the shared interface (the PID baseline), on
+identical episodes.
 
 1. Doublets (Fig. 9) at 500 m, 5,000 m and 15,000 m, EAS 10 m/s, no delay, noise, turbulence or
    parameter change, from a slightly perturbed trimmed start. The references, one channel at a time:
@@ -62,7 +62,7 @@ def fly(controller: AttitudeController, batch: AttitudeTaskBatch, seed: int, ste
         if goal_fn is not None:
             batch.set_goal(0, goal_fn(core.time_s))
         goal = batch.goals[0].copy()
-        # The controller knows its nominal interval, as a flight computer knows its loop rate.
+        # The controller is told the episode's control interval, as a flight computer knows its loop rate.
         command = controller.update(core.setup.control_interval_s, batch.measurements()[0], goal)
         action = np.clip(command_to_action(command), -1.0, 1.0)
         _, terms, terminated, truncated, codes = batch.step(action[None])

@@ -16,15 +16,18 @@ REPO_ROOT = Path(__file__).resolve().parents[1]
 
 
 def git_commit(repo: Path = REPO_ROOT) -> tuple[str | None, bool]:
-    """The checked-out commit and whether tracked files differ from it; (None, False) outside git."""
+    """The checked-out commit and whether the tree differs from it (changed files, or new files
+    that are not ignored); (None, False) outside git or without git."""
     def git(*args: str) -> subprocess.CompletedProcess:
         return subprocess.run(["git", *args], cwd=repo, capture_output=True, text=True, check=False)
 
-    head = git("rev-parse", "HEAD")
-    if head.returncode != 0:
+    try:
+        head = git("rev-parse", "HEAD")
+        if head.returncode != 0:
+            return None, False
+        return head.stdout.strip(), bool(git("status", "--porcelain").stdout.strip())
+    except OSError:  # no git on this machine
         return None, False
-    dirty = bool(git("status", "--porcelain", "--untracked-files=no").stdout.strip())
-    return head.stdout.strip(), dirty
 
 
 def append_session(run_dir: Path | str, argv: list[str], frames: int) -> dict:

@@ -135,6 +135,9 @@ class Trainer:
         self.actor_optim.load_state_dict(data["actor_optim"])
         self.critic_optim.load_state_dict(data["critic_optim"])
         if self.alpha_optim is not None:
+            if data.get("alpha_optim") is None:
+                raise CheckpointError(f"checkpoint {self.checkpoint_path} was trained with a fixed temperature: "
+                                      "resume it with --optim.auto_alpha false")
             self.alpha_optim.load_state_dict(data["alpha_optim"])
         restore_buffer(self.buffer, data["buffer"])
         self.counters = Counters(**data["counters"])
@@ -210,6 +213,9 @@ class Trainer:
         if remaining <= 0:
             return {}
         frames_per_batch = c.collector.frames_per_batch - c.collector.frames_per_batch % c.env.num_envs
+        if frames_per_batch <= 0:
+            raise ValueError(f"collector.frames_per_batch ({c.collector.frames_per_batch}) must be at least "
+                             f"env.num_envs ({c.env.num_envs})")
         # The collector takes random steps in whole batches; rounding up here keeps it from warning.
         random_frames = frames_per_batch * math.ceil(max(0, c.collector.init_random_frames - self.counters.frames)
                                                      / frames_per_batch)
