@@ -18,7 +18,7 @@ from pathlib import Path
 import torch
 
 from training.evaluate import evaluate
-from training.policy import SHIPPED_POLICY, PolicyRuntime, export_onnx, load_policy
+from training.policy import SHIPPED_POLICY, PolicyRuntime, export_onnx, load_policy, policy_digest
 from training.provenance import read_sessions
 
 SHIPPED_DIR = Path(__file__).resolve().parents[1] / "training" / "shipped"
@@ -47,7 +47,7 @@ def main() -> None:
     SHIPPED_DIR.mkdir(parents=True, exist_ok=True)
     target = SHIPPED_DIR / SHIPPED_POLICY
     shutil.copyfile(source, target)
-    export_onnx(actor, target.with_suffix(".onnx"), int(meta["window"]))
+    export_onnx(actor, target.with_suffix(".onnx"), int(meta["window"]), policy_digest(target))
     results = evaluate(PolicyRuntime(target), episodes=args.episodes, plot_dir=None)
     record = {
         "command": sessions[0]["command"], "commit": sessions[0]["commit"], "sessions": sessions,

@@ -72,6 +72,23 @@ def test_runtime_window_matches_catframes_and_backends_agree(policy_file, tmp_pa
                                                  np.array([0.0, 0.0, 10.0])), action_to_command(a), atol=1e-6)
 
 
+def test_a_stale_onnx_export_beside_a_rewritten_policy_is_not_used(policy_file, tmp_path):
+    """A run rewrites best_policy.pt; the .onnx exported beside the older one must be redone."""
+    import shutil
+
+    path = tmp_path / "best_policy.pt"
+    shutil.copyfile(policy_file[0], path)
+    window = np.random.default_rng(1).normal(size=(8, OBS_SIZE)).astype(np.float32)
+    first = PolicyRuntime(path, backend="onnx").action(window)
+    data = torch.load(path, weights_only=False)
+    key = next(k for k in data["actor"] if k.endswith("weight_ih_l0"))
+    data["actor"][key] = data["actor"][key] + 0.5
+    torch.save(data, path)
+    onnx_now = PolicyRuntime(path, backend="onnx").action(window)
+    np.testing.assert_allclose(onnx_now, PolicyRuntime(path, backend="torch").action(window), atol=1e-5)
+    assert np.abs(onnx_now - first).max() > 1e-3
+
+
 def test_broken_policy_file_gives_a_clear_error(tmp_path):
     bad = tmp_path / "bad.pt"
     bad.write_bytes(b"garbage")

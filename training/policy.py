@@ -8,6 +8,9 @@ runs either the PyTorch network or its ONNX export (onnxruntime, one thread).
 
 from __future__ import annotations
 
+import hashlib
+import os
+import tempfile
 from collections import deque
 from importlib import resources
 from pathlib import Path
@@ -20,6 +23,7 @@ from jsbsim_env.task import OBS_SIZE, action_to_command, initial_last_action, sc
 from training.networks import ActorNet
 
 SHIPPED_POLICY = "solar_uav_policy.pt"  # in the training package, with its ONNX export beside it
+ONNX_SOURCE_KEY = "policy_sha256"  # ONNX metadata: digest of the policy file the model was exported from
 
 
 class PolicyFileError(RuntimeError):
@@ -66,12 +70,42 @@ def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
     return actor, meta
 
 
-def export_onnx(actor: DeterministicActor, path: Path | str, window: int = 8) -> Path:
-    """Write the deterministic actor as ONNX (batch of one window, fixed shape)."""
+def policy_digest(path: Path | str) -> str:
+    """SHA-256 of a policy file, stored in its ONNX export to tell a stale export from a current one."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def onnx_source_digest(path: Path | str) -> str | None:
+    """The policy digest an ONNX export was made from (None: no file, or no digest in it)."""
+    import onnx
+
+    path = Path(path)
+    if not path.exists():
+        return None
+    model = onnx.load(str(path), load_external_data=False)
+    return {p.key: p.value for p in model.metadata_props}.get(ONNX_SOURCE_KEY)
+
+
+def export_onnx(actor: DeterministicActor, path: Path | str, window: int = 8, source_digest: str | None = None) -> Path:
+    """Write the deterministic actor as ONNX (batch of one window, fixed shape), atomically, with
+    ``source_digest`` (``policy_digest`` of its policy file) in the model's metadata."""
+    import onnx
+
     path = Path(path)
     example = torch.zeros(1, window, OBS_SIZE)
-    torch.onnx.export(actor, (example,), str(path), input_names=["window"], output_names=["action"],
-                      dynamo=False, opset_version=17)
+    handle, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
+    os.close(handle)
+    try:
+        torch.onnx.export(actor, (example,), tmp, input_names=["window"], output_names=["action"],
+                          dynamo=False, opset_version=17)
+        if source_digest is not None:
+            model = onnx.load(tmp)
+            model.metadata_props.add(key=ONNX_SOURCE_KEY, value=source_digest)
+            onnx.save(model, tmp)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
     return path
 
 
@@ -80,8 +114,8 @@ class PolicyRuntime:
 
     Args:
         policy_path: a policy file (``load_policy``); the shipped one by default.
-        backend: ``"onnx"`` (onnxruntime, the ``.onnx`` file beside the policy, exported if
-            missing) or ``"torch"``.
+        backend: ``"onnx"`` (onnxruntime, the ``.onnx`` file beside the policy, exported again
+            if it is missing or was made from another policy file) or ``"torch"``.
     """
 
     def __init__(self, policy_path: Path | str | None = None, backend: str = "onnx"):
@@ -97,15 +131,27 @@ class PolicyRuntime:
         if backend == "onnx":
             import onnxruntime as ort
 
-            onnx_path = path.with_suffix(".onnx")
-            if not onnx_path.exists():
-                export_onnx(self.actor, onnx_path, self.window)
+            onnx_path = self._current_onnx(path)
             options = ort.SessionOptions()
             options.intra_op_num_threads = 1
             options.inter_op_num_threads = 1
             self._session = ort.InferenceSession(str(onnx_path), options, providers=["CPUExecutionProvider"])
         elif backend != "torch":
             raise ValueError(f"backend must be 'onnx' or 'torch', got {backend!r}")
+
+    def _current_onnx(self, path: Path) -> Path:
+        """The ONNX export of the policy file at ``path``: the one beside it when it was made from
+        this very file, else a fresh export (beside it, or in a temporary folder where that is
+        read-only). A training run rewrites its best policy, so an older export must not be reused."""
+        digest = policy_digest(path)
+        onnx_path = path.with_suffix(".onnx")
+        if onnx_source_digest(onnx_path) == digest:
+            return onnx_path
+        try:
+            return export_onnx(self.actor, onnx_path, self.window, digest)
+        except OSError:
+            self._export_dir = tempfile.TemporaryDirectory()  # lives as long as the runtime
+            return export_onnx(self.actor, Path(self._export_dir.name) / onnx_path.name, self.window, digest)
 
     def reset(self) -> None:
         """Forget the window and the last action (a new episode)."""
@@ -149,4 +195,4 @@ class PolicyRuntime:
 
 
 __all__ = ["DeterministicActor", "PolicyFileError", "PolicyRuntime", "export_onnx", "load_policy",
-           "shipped_policy_path"]
+           "onnx_source_digest", "policy_digest", "shipped_policy_path"]
