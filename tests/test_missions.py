@@ -73,6 +73,16 @@ def test_mission_metrics_on_known_signals():
     assert m["smoothness_throttle"] == pytest.approx(0.0, abs=1e-15)
     half = MissionResult(RouteConfig(), arrays, None).metrics(0.0, 20.0)
     assert half["rmse_roll_deg"] == pytest.approx(0.5)
+    # The flight lasted 40 s: a window after it is an error for metrics, and NaN for the report,
+    # which must describe a controller that crashed rather than stop at it.
+    from training.report import window_metrics
+
+    result = MissionResult(RouteConfig(), arrays, "roll limit")
+    with pytest.raises(ValueError, match="no samples"):
+        result.metrics(50.0, 60.0)
+    late = window_metrics(result, 50.0, 60.0)
+    assert set(late) == set(m) and all(np.isnan(v) for v in late.values())
+    assert window_metrics(result, 0.0, 20.0) == half
 
 
 def test_pid_on_the_policy_evaluation_suite():

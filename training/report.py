@@ -100,6 +100,14 @@ def steady_state_errors(result: MissionResult, after_s: float) -> dict[str, floa
             "pitch_deg": float(np.mean(np.abs(np.degrees(a["pitch_rad"][m] - a["pitch_cmd_rad"][m]))))}
 
 
+def window_metrics(result: MissionResult, start_s: float, end_s: float) -> dict[str, float]:
+    """``result.metrics`` over a window, or the same keys as NaN where the flight ended before it:
+    the report must describe a controller that crashes, not stop at it."""
+    if result.window(start_s, end_s).any():
+        return result.metrics(start_s, end_s)
+    return dict.fromkeys(result.metrics(), math.nan)
+
+
 def _summary(result: MissionResult) -> dict:
     return {"ended_early": result.ended_early, "duration_s": float(result.arrays["time_s"][-1]) if
             result.arrays["time_s"].size else 0.0, "whole_route": result.metrics()}
@@ -265,7 +273,7 @@ def run_report(out_dir: Path | str, policy_path: Path | str | None = None, quick
             entry = _summary(r)
             if turb.any():
                 entry["turbulent_leg"] = r.metrics(float(t[turb][0]), float(t[turb][-1]) + 1e-9)
-            entry["level_window"] = r.metrics(*plan.level_window_s)
+            entry["level_window"] = window_metrics(r, *plan.level_window_s)
             metrics.setdefault("route_10km", {})[name] = entry
             plot_route(r, out / f"fig11_route_10km_{name}.png", f"10 km route, {name}")
             plot_errors(r, out / f"fig12_errors_10km_{name}.png", f"10 km route, {name}: errors and surfaces")
@@ -322,11 +330,11 @@ def run_report(out_dir: Path | str, policy_path: Path | str | None = None, quick
                 pair[label] = r
                 w = plan.backlash_window_s
                 entry = _summary(r)
-                entry["window"] = r.metrics(*w)
+                entry["window"] = window_metrics(r, *w)
                 m = r.window(*w)
-                entry["window"]["elevator_std_deg"] = float(np.std(r.arrays["actuator"][m, 1]))
+                entry["window"]["elevator_std_deg"] = float(np.std(r.arrays["actuator"][m, 1])) if m.any() else math.nan
                 entry["window"]["pitch_error_std_deg"] = float(np.std(np.degrees(
-                    r.arrays["pitch_rad"][m] - r.arrays["pitch_cmd_rad"][m])))
+                    r.arrays["pitch_rad"][m] - r.arrays["pitch_cmd_rad"][m]))) if m.any() else math.nan
                 metrics.setdefault("backlash", {}).setdefault(label, {})[name] = entry
             fig = "fig19" if name == "RL" else "fig20"
             plot_backlash(pair, out / f"{fig}_backlash_{name}.png", plan.backlash_window_s)
