@@ -11,7 +11,6 @@ from __future__ import annotations
 import hashlib
 import os
 import tempfile
-from collections import deque
 from importlib import resources
 from pathlib import Path
 
@@ -126,7 +125,9 @@ class PolicyRuntime:
         self.actor, self.meta = load_policy(path)
         self.window = int(self.meta.get("window", 8))
         self.backend = backend
-        self._frames: deque[np.ndarray] = deque(maxlen=self.window)
+        # The window, oldest row first, shifted in place each step; empty until the episode's first push.
+        self._window = np.zeros((self.window, OBS_SIZE), dtype=np.float32)
+        self._filled = False
         self._last_action: np.ndarray | None = None  # fed back into the next observation
         if backend == "onnx":
             import onnxruntime as ort
@@ -155,17 +156,23 @@ class PolicyRuntime:
 
     def reset(self) -> None:
         """Forget the window and the last action (a new episode)."""
-        self._frames.clear()
+        self._filled = False
         self._last_action: np.ndarray | None = None
 
     def push(self, observation: np.ndarray) -> np.ndarray:
         """Add one scaled observation; returns the window (window, 20), oldest first."""
         obs = np.asarray(observation, dtype=np.float32).reshape(OBS_SIZE)
-        if not self._frames:
-            self._frames.extend([obs] * self.window)  # as CatFrames pads a new episode
+        return self._push(obs).copy()
+
+    def _push(self, obs: np.ndarray) -> np.ndarray:
+        """``push`` without the copy: the runtime's own window, valid until the next push."""
+        if not self._filled:
+            self._window[:] = obs  # as CatFrames pads a new episode
+            self._filled = True
         else:
-            self._frames.append(obs)
-        return np.stack(self._frames)
+            self._window[:-1] = self._window[1:]
+            self._window[-1] = obs
+        return self._window
 
     def action(self, window: np.ndarray) -> np.ndarray:
         """Action in [-1, 1]^4 for one window."""
@@ -181,7 +188,7 @@ class PolicyRuntime:
         if self._last_action is None:
             self._last_action = initial_last_action(measurement)
         obs = scale_observation(np.asarray(measurement), self._last_action, np.asarray(goal))
-        self._last_action = np.clip(self.action(self.push(obs)).astype(np.float64), -1.0, 1.0)
+        self._last_action = np.clip(self.action(self._push(obs)).astype(np.float64), -1.0, 1.0)
         return action_to_command(self._last_action)
 
     def update(self, dt_s: float, measurement: np.ndarray, setpoint: np.ndarray) -> np.ndarray:
@@ -191,7 +198,7 @@ class PolicyRuntime:
 
     def act_scaled(self, observation: np.ndarray) -> np.ndarray:
         """Action in [-1, 1]^4 for an already scaled observation (as the environments give)."""
-        return self.action(self.push(observation))
+        return self.action(self._push(np.asarray(observation, dtype=np.float32).reshape(OBS_SIZE)))
 
 
 __all__ = ["DeterministicActor", "PolicyFileError", "PolicyRuntime", "export_onnx", "load_policy",
