@@ -1,8 +1,8 @@
 """Typed training configuration with command-line overrides.
 
-Every field has a default (SPEC section 3, except where its help says why not) and a help line; ``TrainConfig.from_args`` turns
-them into ``--group.field value`` options (``--help`` lists them), and the full configuration is
-written as JSON with each run.
+Every field has a default (SPEC section 3, except where its help says why not) and a help line;
+``TrainConfig.from_args`` turns them into ``--group.field value`` options (``--help`` lists them),
+and the full configuration is written as JSON with each run.
 """
 
 from __future__ import annotations
