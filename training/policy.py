@@ -188,7 +188,8 @@ class PolicyRuntime:
         if self._last_action is None:
             self._last_action = initial_last_action(measurement)
         obs = scale_observation(np.asarray(measurement), self._last_action, np.asarray(goal))
-        self._last_action = np.clip(self.action(self._push(obs)).astype(np.float64), -1.0, 1.0)
+        # ufuncs directly: np.clip's wrapper alone costs about 10 us a call
+        self._last_action = np.minimum(np.maximum(self.action(self._push(obs)).astype(np.float64), -1.0), 1.0)
         return action_to_command(self._last_action)
 
     def update(self, dt_s: float, measurement: np.ndarray, setpoint: np.ndarray) -> np.ndarray:
