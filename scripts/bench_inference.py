@@ -46,6 +46,16 @@ def main() -> None:
         lat = latencies_us(runtime, args.steps if backend == "onnx" else args.steps // 5, rng)
         result[f"{backend}_median_us"] = float(np.median(lat))
         result[f"{backend}_p99_us"] = float(np.percentile(lat, 99))
+        if backend == "onnx":
+            # Reference in the same process, against the machine's noise: the bare network call.
+            window = np.zeros((runtime.window, 20), dtype=np.float32)
+            net = np.empty(args.steps)
+            for k in range(args.steps):
+                t0 = time.perf_counter()
+                runtime.action(window)
+                net[k] = time.perf_counter() - t0
+            result["onnx_network_median_us"] = float(np.median(net) * 1e6)
+            result["onnx_step_over_network"] = result["onnx_median_us"] / result["onnx_network_median_us"]
     print(json.dumps(result, indent=2) if args.json else "\n".join(f"{k:20s} {v:.1f}" for k, v in result.items()))
 
 
