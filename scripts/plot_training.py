@@ -70,6 +70,7 @@ def main() -> None:
         values = np.array([np.interp(grid, x, y) for x, y in curves])
         ax.plot(grid, values.mean(axis=0), label=f"mean of {len(curves)} runs")
         ax.fill_between(grid, values.min(axis=0), values.max(axis=0), alpha=0.3, label="min-max")
+        ax.xaxis.set_major_formatter(plt.FuncFormatter(lambda x, _: f"{x / 1000:.0f}k"))
         ax.set_xlabel("environment steps")
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
