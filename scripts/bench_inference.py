@@ -19,16 +19,21 @@ import torch
 from training.policy import PolicyRuntime
 
 
+def timed_us(call, steps: int) -> np.ndarray:
+    """Wall time of ``call(k)`` for k = 0 .. steps-1, in microseconds."""
+    out = np.empty(steps)
+    for k in range(steps):
+        t0 = time.perf_counter()
+        call(k)
+        out[k] = time.perf_counter() - t0
+    return out * 1e6
+
+
 def latencies_us(runtime: PolicyRuntime, steps: int, rng: np.random.Generator) -> np.ndarray:
     measurements = rng.normal(size=(steps, 13)) * 0.01 + np.array([10000, 0, 0, 0, 0, 0, 10, 0, 0, 0, 0, 0, 0.3])
     goal = np.array([0.0, 0.0, 10.0])
-    out = np.empty(steps)
     runtime.reset()
-    for k in range(steps):
-        t0 = time.perf_counter()
-        runtime.act(measurements[k], goal)
-        out[k] = time.perf_counter() - t0
-    return out * 1e6
+    return timed_us(lambda k: runtime.act(measurements[k], goal), steps)
 
 
 def main() -> None:
@@ -49,12 +54,8 @@ def main() -> None:
         if backend == "onnx":
             # Reference in the same process, against the machine's noise: the bare network call.
             window = np.zeros((runtime.window, 20), dtype=np.float32)
-            net = np.empty(args.steps)
-            for k in range(args.steps):
-                t0 = time.perf_counter()
-                runtime.action(window)
-                net[k] = time.perf_counter() - t0
-            result["onnx_network_median_us"] = float(np.median(net) * 1e6)
+            net = timed_us(lambda _, act=runtime.action, w=window: act(w), args.steps)
+            result["onnx_network_median_us"] = float(np.median(net))
             result["onnx_step_over_network"] = result["onnx_median_us"] / result["onnx_network_median_us"]
     print(json.dumps(result, indent=2) if args.json else "\n".join(f"{k:20s} {v:.1f}" for k, v in result.items()))
 

@@ -33,14 +33,12 @@ def main() -> None:
         parser.error("--policy and --backend are for --controller policy")
     torch.set_num_threads(1)
     if args.controller == "pid":
-        controller = PIDAttitudeController()
+        controller, about = PIDAttitudeController(), {"name": "gain-scheduled PID"}
     else:
         controller = PolicyRuntime(args.policy, backend=args.backend)
+        about = {"name": "policy", **{k: v for k, v in controller.meta.items() if k != "network"}}
     results = evaluate(controller, episodes=args.episodes, plot_dir=args.plots, progress=not args.json)
-    if args.controller == "pid":
-        results["controller"] = {"name": "gain-scheduled PID"}
-    else:
-        results["controller"] = {"name": "policy", **{k: v for k, v in controller.meta.items() if k != "network"}}
+    results["controller"] = about
     print(json.dumps(results, indent=2, default=float))
 
 

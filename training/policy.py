@@ -161,8 +161,7 @@ class PolicyRuntime:
 
     def push(self, observation: np.ndarray) -> np.ndarray:
         """Add one scaled observation; returns the window (window, 20), oldest first."""
-        obs = np.asarray(observation, dtype=np.float32).reshape(OBS_SIZE)
-        return self._push(obs).copy()
+        return self._push(_as_frame(observation)).copy()
 
     def _push(self, obs: np.ndarray) -> np.ndarray:
         """``push`` without the copy: the runtime's own window, valid until the next push."""
@@ -199,7 +198,12 @@ class PolicyRuntime:
 
     def act_scaled(self, observation: np.ndarray) -> np.ndarray:
         """Action in [-1, 1]^4 for an already scaled observation (as the environments give)."""
-        return self.action(self._push(np.asarray(observation, dtype=np.float32).reshape(OBS_SIZE)))
+        return self.action(self._push(_as_frame(observation)))
+
+
+def _as_frame(observation: np.ndarray) -> np.ndarray:
+    """One scaled observation as a window row (float32, 20 values)."""
+    return np.asarray(observation, dtype=np.float32).reshape(OBS_SIZE)
 
 
 __all__ = ["DeterministicActor", "PolicyFileError", "PolicyRuntime", "export_onnx", "load_policy",

@@ -332,9 +332,10 @@ def run_report(out_dir: Path | str, policy_path: Path | str | None = None, quick
                 entry = _summary(r)
                 entry["window"] = window_metrics(r, *w)
                 m = r.window(*w)
-                entry["window"]["elevator_std_deg"] = float(np.std(r.arrays["actuator"][m, 1])) if m.any() else math.nan
-                entry["window"]["pitch_error_std_deg"] = float(np.std(np.degrees(
-                    r.arrays["pitch_rad"][m] - r.arrays["pitch_cmd_rad"][m]))) if m.any() else math.nan
+                spread = {"elevator_std_deg": r.arrays["actuator"][m, 1],
+                          "pitch_error_std_deg": np.degrees(r.arrays["pitch_rad"][m] - r.arrays["pitch_cmd_rad"][m])}
+                for key, values in spread.items():  # NaN where the flight ended before the window
+                    entry["window"][key] = float(np.std(values)) if values.size else math.nan
                 metrics.setdefault("backlash", {}).setdefault(label, {})[name] = entry
             fig = "fig19" if name == "RL" else "fig20"
             plot_backlash(pair, out / f"{fig}_backlash_{name}.png", plan.backlash_window_s)
