@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from aircraft.design.xml_writer import INERTIA_SCALE, TERMS
 from jsbsim_env import disturbances as dist
+from jsbsim_env.model_check import SCALED_TERMS
 from jsbsim_env.sim import (
     CONTROL_INPUTS,
     EAS_RANGE_MPS,
@@ -50,7 +50,6 @@ COMMAND_LOW = np.array([-SURFACE_LIMITS_DEG["aileron"], -SURFACE_LIMITS_DEG["ele
                         0.0])
 COMMAND_HIGH = -COMMAND_LOW + np.array([0.0, 0.0, 0.0, 1.0])
 MAX_ROTOR_RPM = 1800.0
-SCALED_TERMS = (*TERMS, INERTIA_SCALE)  # every aero/scale/<term> property of the aircraft
 DEG_TO_RAD = math.pi / 180.0
 EARTH_RADIUS_M = 6_371_000.0  # mean radius: local north/east over a route of tens of km
 

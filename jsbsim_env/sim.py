@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 import aircraft
+from jsbsim_env.model_check import ModelError, validate_loaded_model
 
 FT_TO_M = 0.3048
 M_TO_FT = 1.0 / FT_TO_M
@@ -37,10 +38,6 @@ FAST_SETTLE_LAG_PER_S = 50.0
 CONTROL_INPUTS = ("fcs/aileron-cmd-norm", "fcs/elevator-cmd-norm", "fcs/rudder-cmd-norm",
                   "fcs/throttle-cmd-norm[0]")
 SURFACE_LIMITS_DEG = {"aileron": 30.0, "elevator": 30.0, "rudder": 20.0}
-
-
-class ModelError(RuntimeError):
-    """The aircraft files could not be loaded."""
 
 
 class TrimError(RuntimeError):
@@ -99,10 +96,11 @@ class Simulation:
             raise ModelError(f"JSBSim could not load aircraft {aircraft_name!r} from {self.root}/aircraft")
         self.dt_s = 1.0 / sim_rate_hz
         self.engine_count = self.fdm.get_propulsion().get_num_engines()
+        # JSBSim flies a model with missing elements (reading them as 0); refuse it here. This
+        # also runs the first initial-condition pass.
+        validate_loaded_model(self.fdm, self.root / "aircraft" / aircraft_name / f"{aircraft_name}.xml")
         # Start the motors once: JSBSim's engine start re-initialises the rotors, which must keep
         # their speed across the initial-condition passes of a trim.
-        if not self.fdm.run_ic():
-            raise ModelError(f"JSBSim could not initialise aircraft {aircraft_name!r}")
         self.fdm["propulsion/set-running"] = -1
 
     # ------------------------------------------------------------------ properties
