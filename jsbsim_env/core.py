@@ -62,7 +62,10 @@ class Envelope:
     max_abs_pitch_deg: float = 45.0
     alpha_range_deg: tuple[float, float] = (-20.0, 25.0)
     eas_range_mps: tuple[float, float] = (4.0, 25.0)
-    altitude_range_m: tuple[float, float] = (50.0, 22000.0)  # below 50 m counts as ground strike
+    # Lower bound: height above the terrain (below it, a ground strike). The terrain lies at
+    # sim.TERRAIN_ELEVATION_M, 100 m below sea level, so an episode may start at the envelope's
+    # floor (0 m) and ends 50 m below it. Upper bound: altitude above sea level.
+    altitude_range_m: tuple[float, float] = (50.0, 22000.0)
 
 
 @dataclass(frozen=True)
@@ -315,6 +318,7 @@ class FlightCore:
                 g[12]() / MAX_ROTOR_RPM]
 
     def height_above_ground_m(self) -> float:
+        """Height above the simulated terrain (``sim.TERRAIN_ELEVATION_M``), for the ground-strike check."""
         return self._get_state[15]() * FT_TO_M
 
     def _measure(self) -> np.ndarray:

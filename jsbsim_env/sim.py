@@ -25,6 +25,10 @@ RHO0_SLUG_FT3 = 0.0023768907688269184  # the same in JSBSim's units
 SLUG_FT3_TO_KG_M3 = 515.378818
 
 ALTITUDE_RANGE_M = (0.0, 20000.0)  # the flight envelope of the aircraft (SPEC section 1)
+# The ground under every simulation: 100 m below the envelope's floor, so that the aircraft trims
+# and flies at sea level with its landing gear clear, and an episode started there still has the
+# flight core's 50 m ground-strike margin (core.Envelope) before it ends.
+TERRAIN_ELEVATION_M = ALTITUDE_RANGE_M[0] - 100.0
 EAS_RANGE_MPS = (8.0, 12.0)
 DEFAULT_SIM_RATE_HZ = 120.0
 # Trim's first throttle guess per m/s of true airspeed (cruise trims lie at 0.013-0.015).
@@ -73,6 +77,10 @@ def _quiet_jsbsim() -> None:
 class Simulation:
     """A JSBSim instance flying the solar UAV.
 
+    The terrain lies at ``TERRAIN_ELEVATION_M`` (below sea level), so ``position/h-agl-ft`` is the
+    height above that, and an initial-condition file's ``<altitude>`` (which JSBSim reads as
+    height above the terrain) places the aircraft 100 m lower than the same ``<altitudeMSL>``.
+
     Args:
         root: JSBSim root folder; defaults to the one that ships with the package.
         sim_rate_hz: integration rate of the flight dynamics.
@@ -96,6 +104,7 @@ class Simulation:
             raise ModelError(f"JSBSim could not load aircraft {aircraft_name!r} from {self.root}/aircraft")
         self.dt_s = 1.0 / sim_rate_hz
         self.engine_count = self.fdm.get_propulsion().get_num_engines()
+        self.fdm["ic/terrain-elevation-ft"] = TERRAIN_ELEVATION_M * M_TO_FT
         # JSBSim flies a model with missing elements (reading them as 0); refuse it here. This
         # also runs the first initial-condition pass.
         validate_loaded_model(self.fdm, self.root / "aircraft" / aircraft_name / f"{aircraft_name}.xml")

@@ -47,8 +47,6 @@ class TrimTable:
         if key not in self._cells:
             if self._sim is None:
                 self._sim = Simulation()
-                # Sea level is in the envelope; keep the gear clear of the terrain while trimming.
-                self._sim["ic/terrain-elevation-ft"] = -1000.0
             t = self._sim.trim(float(GRID_ALTITUDES_M[i]), float(GRID_EAS_MPS[j]))
             self._cells[key] = np.array([t.alpha_deg, t.elevator_deg, t.throttle])
         return self._cells[key]
