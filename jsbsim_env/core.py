@@ -136,13 +136,13 @@ class FlightCore:
 
     Args:
         config: disturbances and episode start.
-        root: JSBSim root; the packaged aircraft by default.
+        root: JSBSim root; the packaged aircraft by default. Episodes start from this aircraft's trim.
     """
 
     def __init__(self, config: CoreConfig | None = None, root: Path | str | None = None):
         self.config = config or CoreConfig()
         self.root = root
-        self.trim_table = TrimTable.shared()
+        self.trim_table = TrimTable.shared(root)
         self.noise = dist.OrnsteinUhlenbeckNoise(NOISE_SIGMA, self.config.noise_reversion_per_s)
         self._command_scale = (1.0 / SURFACE_LIMITS_DEG["aileron"], 1.0 / SURFACE_LIMITS_DEG["elevator"],
                                1.0 / SURFACE_LIMITS_DEG["rudder"], 1.0)
