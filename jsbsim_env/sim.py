@@ -10,6 +10,7 @@ import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -67,6 +68,21 @@ class TrimResult:
     def as_dict(self) -> dict[str, float]:
         """Plain dict, for JSON output."""
         return dict(self.__dict__)
+
+
+class Inertia(NamedTuple):
+    """Moments and product of inertia about the CG in body axes (x forward, y right, z down).
+
+    Flight-dynamics convention: ``ixz_kg_m2`` is the product of inertia, the integral of x z dm
+    (SPEC Table 1: +37 kg m²); the inertia tensor holds -Ixz off its diagonal, so at zero body
+    rates Ixx pdot - Ixz rdot = L and Izz rdot - Ixz pdot = N. Ixy and Iyz, zero for this
+    symmetric aircraft, are left out.
+    """
+
+    ixx_kg_m2: float
+    iyy_kg_m2: float
+    izz_kg_m2: float
+    ixz_kg_m2: float
 
 
 def _quiet_jsbsim() -> None:
@@ -203,6 +219,18 @@ class Simulation:
         self.set_controls(aileron_deg, elevator_deg, rudder_deg, throttle)
         self.settle_actuators()
         self.set_initial_conditions(altitude_m, tas_mps, alpha_deg=alpha_deg)
+
+    def inertia_kg_m2(self) -> Inertia:
+        """The inertia JSBSim integrates with.
+
+        JSBSim's tensor (``get_mass_balance().get_J()``), its ``inertia/ixz-slugs_ft2`` property
+        and its mass-properties report all give the tensor element, -Ixz (-37 kg m² here); this
+        returns the product of inertia +Ixz. ``aero/scale/I`` is not included: the model applies
+        it as a factor 1/s on the aerodynamic moments (``Systems/scaling.xml``).
+        """
+        f = self.fdm
+        return Inertia(f["inertia/ixx-slugs_ft2"] * SLUG_FT2_TO_KG_M2, f["inertia/iyy-slugs_ft2"] * SLUG_FT2_TO_KG_M2,
+                       f["inertia/izz-slugs_ft2"] * SLUG_FT2_TO_KG_M2, -f["inertia/ixz-slugs_ft2"] * SLUG_FT2_TO_KG_M2)
 
     def thrust_n(self) -> float:
         """Total thrust of all propellers."""
