@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from aircraft.design.xml_writer import INERTIA_SCALE, TERMS
 from jsbsim_env import disturbances as dist
+from jsbsim_env.model_check import SCALED_TERMS
 from jsbsim_env.sim import (
     CONTROL_INPUTS,
     EAS_RANGE_MPS,
@@ -50,7 +50,6 @@ COMMAND_LOW = np.array([-SURFACE_LIMITS_DEG["aileron"], -SURFACE_LIMITS_DEG["ele
                         0.0])
 COMMAND_HIGH = -COMMAND_LOW + np.array([0.0, 0.0, 0.0, 1.0])
 MAX_ROTOR_RPM = 1800.0
-SCALED_TERMS = (*TERMS, INERTIA_SCALE)  # every aero/scale/<term> property of the aircraft
 DEG_TO_RAD = math.pi / 180.0
 EARTH_RADIUS_M = 6_371_000.0  # mean radius: local north/east over a route of tens of km
 
@@ -63,7 +62,10 @@ class Envelope:
     max_abs_pitch_deg: float = 45.0
     alpha_range_deg: tuple[float, float] = (-20.0, 25.0)
     eas_range_mps: tuple[float, float] = (4.0, 25.0)
-    altitude_range_m: tuple[float, float] = (50.0, 22000.0)  # below 50 m counts as ground strike
+    # Lower bound: height above the terrain (below it, a ground strike). The terrain lies at
+    # sim.TERRAIN_ELEVATION_M, 100 m below sea level, so an episode may start at the envelope's
+    # floor (0 m) and ends 50 m below it. Upper bound: altitude above sea level.
+    altitude_range_m: tuple[float, float] = (50.0, 22000.0)
 
 
 @dataclass(frozen=True)
@@ -134,13 +136,13 @@ class FlightCore:
 
     Args:
         config: disturbances and episode start.
-        root: JSBSim root; the packaged aircraft by default.
+        root: JSBSim root; the packaged aircraft by default. Episodes start from this aircraft's trim.
     """
 
     def __init__(self, config: CoreConfig | None = None, root: Path | str | None = None):
         self.config = config or CoreConfig()
         self.root = root
-        self.trim_table = TrimTable.shared()
+        self.trim_table = TrimTable.shared(root)
         self.noise = dist.OrnsteinUhlenbeckNoise(NOISE_SIGMA, self.config.noise_reversion_per_s)
         self._command_scale = (1.0 / SURFACE_LIMITS_DEG["aileron"], 1.0 / SURFACE_LIMITS_DEG["elevator"],
                                1.0 / SURFACE_LIMITS_DEG["rudder"], 1.0)
@@ -316,6 +318,7 @@ class FlightCore:
                 g[12]() / MAX_ROTOR_RPM]
 
     def height_above_ground_m(self) -> float:
+        """Height above the simulated terrain (``sim.TERRAIN_ELEVATION_M``), for the ground-strike check."""
         return self._get_state[15]() * FT_TO_M
 
     def _measure(self) -> np.ndarray:

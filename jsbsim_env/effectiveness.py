@@ -59,8 +59,6 @@ def effectiveness_at(sim: Simulation, altitude_m: float, airspeed_eas_mps: float
 def effectiveness(altitudes_m, airspeed_eas_mps: float = 10.0) -> list[dict[str, float]]:
     """``effectiveness_at`` for every altitude, each figure also normalised to the first altitude."""
     sim = Simulation()
-    # Sea level is inside the envelope; move the terrain below so the landing gear stays clear.
-    sim["ic/terrain-elevation-ft"] = -1000.0
     rows = [effectiveness_at(sim, h, airspeed_eas_mps) for h in altitudes_m]
     for row in rows:
         for key in [k for k in row if k.endswith(("_per_deg", "_n"))]:

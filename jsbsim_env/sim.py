@@ -10,10 +10,12 @@ import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
 import aircraft
+from jsbsim_env.model_check import ModelError, validate_loaded_model
 
 FT_TO_M = 0.3048
 M_TO_FT = 1.0 / FT_TO_M
@@ -24,6 +26,10 @@ RHO0_SLUG_FT3 = 0.0023768907688269184  # the same in JSBSim's units
 SLUG_FT3_TO_KG_M3 = 515.378818
 
 ALTITUDE_RANGE_M = (0.0, 20000.0)  # the flight envelope of the aircraft (SPEC section 1)
+# The ground under every simulation: 100 m below the envelope's floor, so that the aircraft trims
+# and flies at sea level with its landing gear clear, and an episode started there still has the
+# flight core's 50 m ground-strike margin (core.Envelope) before it ends.
+TERRAIN_ELEVATION_M = ALTITUDE_RANGE_M[0] - 100.0
 EAS_RANGE_MPS = (8.0, 12.0)
 DEFAULT_SIM_RATE_HZ = 120.0
 # Trim's first throttle guess per m/s of true airspeed (cruise trims lie at 0.013-0.015).
@@ -37,10 +43,6 @@ FAST_SETTLE_LAG_PER_S = 50.0
 CONTROL_INPUTS = ("fcs/aileron-cmd-norm", "fcs/elevator-cmd-norm", "fcs/rudder-cmd-norm",
                   "fcs/throttle-cmd-norm[0]")
 SURFACE_LIMITS_DEG = {"aileron": 30.0, "elevator": 30.0, "rudder": 20.0}
-
-
-class ModelError(RuntimeError):
-    """The aircraft files could not be loaded."""
 
 
 class TrimError(RuntimeError):
@@ -68,6 +70,21 @@ class TrimResult:
         return dict(self.__dict__)
 
 
+class Inertia(NamedTuple):
+    """Moments and product of inertia about the CG in body axes (x forward, y right, z down).
+
+    Flight-dynamics convention: ``ixz_kg_m2`` is the product of inertia, the integral of x z dm
+    (SPEC Table 1: +37 kg m²); the inertia tensor holds -Ixz off its diagonal, so at zero body
+    rates Ixx pdot - Ixz rdot = L and Izz rdot - Ixz pdot = N. Ixy and Iyz, zero for this
+    symmetric aircraft, are left out.
+    """
+
+    ixx_kg_m2: float
+    iyy_kg_m2: float
+    izz_kg_m2: float
+    ixz_kg_m2: float
+
+
 def _quiet_jsbsim() -> None:
     # JSBSim prints a banner and model notes to stdout unless its debug level is 0 before loading.
     os.environ.setdefault("JSBSIM_DEBUG", "0")
@@ -75,6 +92,10 @@ def _quiet_jsbsim() -> None:
 
 class Simulation:
     """A JSBSim instance flying the solar UAV.
+
+    The terrain lies at ``TERRAIN_ELEVATION_M`` (below sea level), so ``position/h-agl-ft`` is the
+    height above that, and an initial-condition file's ``<altitude>`` (which JSBSim reads as
+    height above the terrain) places the aircraft 100 m lower than the same ``<altitudeMSL>``.
 
     Args:
         root: JSBSim root folder; defaults to the one that ships with the package.
@@ -99,10 +120,12 @@ class Simulation:
             raise ModelError(f"JSBSim could not load aircraft {aircraft_name!r} from {self.root}/aircraft")
         self.dt_s = 1.0 / sim_rate_hz
         self.engine_count = self.fdm.get_propulsion().get_num_engines()
+        self.fdm["ic/terrain-elevation-ft"] = TERRAIN_ELEVATION_M * M_TO_FT
+        # JSBSim flies a model with missing elements (reading them as 0); refuse it here. This
+        # also runs the first initial-condition pass.
+        validate_loaded_model(self.fdm, self.root / "aircraft" / aircraft_name / f"{aircraft_name}.xml")
         # Start the motors once: JSBSim's engine start re-initialises the rotors, which must keep
         # their speed across the initial-condition passes of a trim.
-        if not self.fdm.run_ic():
-            raise ModelError(f"JSBSim could not initialise aircraft {aircraft_name!r}")
         self.fdm["propulsion/set-running"] = -1
 
     # ------------------------------------------------------------------ properties
@@ -196,6 +219,18 @@ class Simulation:
         self.set_controls(aileron_deg, elevator_deg, rudder_deg, throttle)
         self.settle_actuators()
         self.set_initial_conditions(altitude_m, tas_mps, alpha_deg=alpha_deg)
+
+    def inertia_kg_m2(self) -> Inertia:
+        """The inertia JSBSim integrates with.
+
+        JSBSim's tensor (``get_mass_balance().get_J()``), its ``inertia/ixz-slugs_ft2`` property
+        and its mass-properties report all give the tensor element, -Ixz (-37 kg m² here); this
+        returns the product of inertia +Ixz. ``aero/scale/I`` is not included: the model applies
+        it as a factor 1/s on the aerodynamic moments (``Systems/scaling.xml``).
+        """
+        f = self.fdm
+        return Inertia(f["inertia/ixx-slugs_ft2"] * SLUG_FT2_TO_KG_M2, f["inertia/iyy-slugs_ft2"] * SLUG_FT2_TO_KG_M2,
+                       f["inertia/izz-slugs_ft2"] * SLUG_FT2_TO_KG_M2, -f["inertia/ixz-slugs_ft2"] * SLUG_FT2_TO_KG_M2)
 
     def thrust_n(self) -> float:
         """Total thrust of all propellers."""

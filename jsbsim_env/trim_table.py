@@ -1,16 +1,20 @@
 """Trim of the nominal aircraft on an altitude x EAS grid, filled on demand and interpolated.
 
 Episode starts need a trimmed state in a few milliseconds; a full trim takes tens. The grid's
-cells are trimmed the first time a start falls in them and kept for the life of the process.
+cells are trimmed the first time a start falls in them and kept for the life of the process, one
+table per aircraft (JSBSim root and aircraft name).
 """
 
 from __future__ import annotations
 
 import threading
 from dataclasses import dataclass
+from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 
+import aircraft
 from jsbsim_env.sim import ALTITUDE_RANGE_M, EAS_RANGE_MPS, Simulation
 
 GRID_ALTITUDES_M = np.array([0.0, 500.0, *np.arange(1000.0, 20001.0, 1000.0)])
@@ -25,30 +29,38 @@ class TrimPoint:
 
 
 class TrimTable:
-    """Bilinear interpolation of trimmed alpha, elevator and throttle (nominal coefficients)."""
+    """Bilinear interpolation of trimmed alpha, elevator and throttle (nominal coefficients).
 
-    _shared: TrimTable | None = None
+    Args:
+        root: JSBSim root of the aircraft; the packaged one by default.
+        aircraft_name: aircraft folder under ``<root>/aircraft``.
+    """
+
+    _shared: ClassVar[dict[tuple[Path, str], TrimTable]] = {}
     _lock = threading.Lock()
 
-    def __init__(self):
+    def __init__(self, root: Path | str | None = None, aircraft_name: str = aircraft.AIRCRAFT_NAME):
+        self.root = Path(root).resolve() if root is not None else aircraft.jsbsim_root()
+        self.aircraft_name = aircraft_name
         self._sim: Simulation | None = None
         self._cells: dict[tuple[int, int], np.ndarray] = {}
 
     @classmethod
-    def shared(cls) -> TrimTable:
-        """One table per process."""
+    def shared(cls, root: Path | str | None = None, aircraft_name: str = aircraft.AIRCRAFT_NAME) -> TrimTable:
+        """One table per aircraft (JSBSim root and aircraft name) and process.
+
+        The simulation rate is not part of the key: a trim is a steady state, the same at any rate
+        to its tolerance (60 and 240 Hz differ by 1e-5 in throttle).
+        """
+        table = cls(root, aircraft_name)
         with cls._lock:
-            if cls._shared is None:
-                cls._shared = cls()
-            return cls._shared
+            return cls._shared.setdefault((table.root, aircraft_name), table)
 
     def _node(self, i: int, j: int) -> np.ndarray:
         key = (i, j)
         if key not in self._cells:
             if self._sim is None:
-                self._sim = Simulation()
-                # Sea level is in the envelope; keep the gear clear of the terrain while trimming.
-                self._sim["ic/terrain-elevation-ft"] = -1000.0
+                self._sim = Simulation(self.root, aircraft_name=self.aircraft_name)
             t = self._sim.trim(float(GRID_ALTITUDES_M[i]), float(GRID_EAS_MPS[j]))
             self._cells[key] = np.array([t.alpha_deg, t.elevator_deg, t.throttle])
         return self._cells[key]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import shutil
+import xml.etree.ElementTree as ET
 
 import numpy as np
 import pytest
@@ -11,8 +12,9 @@ import pytest
 import aircraft
 from aircraft.design import aero_data, xml_writer
 from aircraft.design.geometry import AircraftGeometry
+from jsbsim_env.model_check import COEFFICIENT_TERMS
 from jsbsim_env.runscripts import RUNS
-from jsbsim_env.sim import FT_TO_M, ModelError, Simulation
+from jsbsim_env.sim import FT_TO_M, LBF_TO_N, SLUG_FT2_TO_KG_M2, ModelError, Simulation
 
 
 @pytest.fixture(scope="module")
@@ -46,12 +48,42 @@ def test_every_reset_file_runs():
 def test_mass_and_inertia_match_table_1(sim):
     sim.set_initial_conditions(1000.0, 10.5)
     assert sim["inertia/mass-slugs"] * 14.5939 == pytest.approx(359.0, rel=1e-6)
-    j = np.asarray(sim.fdm.get_mass_balance().get_J()) * 1.3558179483314
-    assert j[0, 0] == pytest.approx(15221.0, rel=2e-4)  # JSBSim's own unit conversion
-    assert j[1, 1] == pytest.approx(1827.5, rel=2e-4)
-    assert j[2, 2] == pytest.approx(16967.0, rel=2e-4)
-    # JSBSim's tensor holds -Ixz off the diagonal for a product of inertia Ixz = +37 kg m².
-    assert j[0, 2] == pytest.approx(-37.0, rel=2e-4)
+    # JSBSim reads KG*M2 with its factor 1/1.35594 (exactly 1/1.3558179): 9e-5 low when read back.
+    assert sim.inertia_kg_m2() == pytest.approx((15221.0, 1827.5, 16967.0, 37.0), rel=2e-4)
+
+
+def test_ixz_is_the_product_of_inertia_of_the_mass_model(sim):
+    """The file's <ixz> is the product of inertia (integral of x z dm) and JSBSim reads it as such."""
+    mass_balance = ET.parse(aircraft.aircraft_dir() / "MassBalance.xml").getroot()
+    assert mass_balance.get("negated_crossproduct_inertia") == "false"
+    ixz_file = float(mass_balance.find("ixz").text)
+    ixz_model = AircraftGeometry().inertia_kg_m2[3]
+    assert ixz_file == ixz_model > 0.0
+    assert sim.inertia_kg_m2().ixz_kg_m2 == pytest.approx(ixz_model, rel=2e-4)
+    # JSBSim's own read-backs give the tensor element, -Ixz.
+    j = np.asarray(sim.fdm.get_mass_balance().get_J()) * SLUG_FT2_TO_KG_M2
+    assert j[0, 2] == j[2, 0] == pytest.approx(-ixz_model, rel=2e-4)
+    assert sim["inertia/ixz-slugs_ft2"] * SLUG_FT2_TO_KG_M2 == pytest.approx(-ixz_model, rel=2e-4)
+
+
+def test_a_pure_rolling_moment_yaws_the_way_ixz_says():
+    """At zero rates Ixx pdot - Ixz rdot = L and Izz rdot - Ixz pdot = N: with N = 0, rdot = (Ixz/Izz) pdot."""
+    s = Simulation()
+    for term in COEFFICIENT_TERMS:  # only the ailerons' rolling moment acts
+        s[f"aero/scale/{term}"] = 1.0 if term == "Clda" else 0.0
+    s.set_initial_conditions(1000.0, 10.5)
+    s.set_controls(10.0, 0.0, 0.0, 0.0)
+    s.settle_actuators()
+    s.set_initial_conditions(1000.0, 10.5)
+    to_nm = LBF_TO_N * FT_TO_M
+    roll_nm, yaw_nm = s["moments/l-total-lbsft"] * to_nm, s["moments/n-total-lbsft"] * to_nm
+    pdot, rdot = s["accelerations/pdot-rad_sec2"], s["accelerations/rdot-rad_sec2"]
+    ixx, _, izz, ixz = s.inertia_kg_m2()
+    assert abs(roll_nm) > 1000.0 and abs(yaw_nm) < 1e-9 * abs(roll_nm)
+    assert ixx * pdot - ixz * rdot == pytest.approx(roll_nm, rel=1e-9)
+    assert izz * rdot - ixz * pdot == pytest.approx(yaw_nm, abs=1e-9 * abs(roll_nm))
+    # Ixz > 0: the yaw acceleration has the sign of the roll acceleration (read as -Ixz it would not).
+    assert rdot * pdot > 0.0 and rdot / pdot == pytest.approx(ixz / izz, rel=1e-6)
 
 
 def _step_response(sim: Simulation, prop_in: str, value: float, prop_out: str, seconds: float) -> np.ndarray:

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import shutil
+import xml.etree.ElementTree as ET
 from dataclasses import replace
 
 import gymnasium as gym
@@ -10,10 +12,12 @@ import numpy as np
 import pytest
 import torch
 
+import aircraft
 import jsbsim_env
 from jsbsim_env import disturbances as dist
 from jsbsim_env.core import NOISE_SIGMA, CommandError, CoreConfig, Envelope, FlightCore
 from jsbsim_env.metrics import EpisodeRecorder, actuator_smoothness, rmse, smoothness
+from jsbsim_env.sim import TERRAIN_ELEVATION_M
 from jsbsim_env.task import (
     GOAL_HIGH,
     GOAL_LOW,
@@ -347,9 +351,9 @@ def _run_until_end(task: AttitudeTask, action, steps: int = 600) -> dict:
     ("angle of attack limit", {"envelope": Envelope(alpha_range_deg=(-3.0, 3.0))}, [0.0, -1.0, 0.0, 0.3]),
     ("airspeed limit", {"envelope": Envelope(eas_range_mps=(9.0, 11.0))}, [0.0, 0.5, 0.0, -1.0]),
     ("altitude too high", {"envelope": Envelope(altitude_range_m=(50.0, 5010.0))}, [0.0, -0.3, 0.0, 1.0]),
-    ("ground strike", {"altitude_range_m": (80.0, 80.0), "envelope": Envelope(max_abs_pitch_deg=89.0,
-                                                                          alpha_range_deg=(-90, 90),
-                                                                          eas_range_mps=(0.1, 90))},
+    # Started 80 m above the terrain.
+    ("ground strike", {"altitude_range_m": (TERRAIN_ELEVATION_M + 80.0,) * 2,
+                       "envelope": Envelope(max_abs_pitch_deg=89.0, alpha_range_deg=(-90, 90), eas_range_mps=(0.1, 90))},
      [0.0, 1.0, 0.0, 0.0]),
 ])
 def test_each_termination_cause_is_reachable(cause, core_kw, action):
@@ -358,6 +362,39 @@ def test_each_termination_cause_is_reachable(cause, core_kw, action):
     task.reset(0)
     end = _run_until_end(task, np.array(action, dtype=float))
     assert end["terminated"] and end["termination"].startswith(cause), end["termination"]
+
+
+def test_flight_core_trims_the_aircraft_of_its_own_root(tmp_path):
+    root = tmp_path / "root"
+    shutil.copytree(aircraft.aircraft_dir(), root / "aircraft" / aircraft.AIRCRAFT_NAME)
+    mass_file = root / "aircraft" / aircraft.AIRCRAFT_NAME / "MassBalance.xml"
+    tree = ET.parse(mass_file)
+    tree.find("emptywt").text = f" {1.2 * float(tree.find('emptywt').text)} "
+    tree.write(mass_file)
+    packaged, heavier = FlightCore(CoreConfig.ideal()), FlightCore(CoreConfig.ideal(), root=root)
+    assert heavier.trim_table is not packaged.trim_table
+    assert heavier.trim_table is FlightCore(CoreConfig.ideal(), root=str(root)).trim_table  # one per aircraft
+    for core in (packaged, heavier):
+        core.reset(0, altitude_m=1000.0, airspeed_eas_mps=10.0)  # a grid point: the trim itself
+        f = core.sim.fdm
+        assert abs(f["accelerations/wdot-ft_sec2"]) < 1e-2 and abs(f["accelerations/qdot-rad_sec2"]) < 1e-3
+    # More weight at the same speed: more lift, so a higher angle of attack and more thrust.
+    assert heavier.setup.trim_command[3] > packaged.setup.trim_command[3]
+    assert heavier.trim_table.lookup(1000.0, 10.0).alpha_deg > packaged.trim_table.lookup(1000.0, 10.0).alpha_deg + 0.5
+
+
+def test_flight_from_sea_level_keeps_the_gear_clear_and_the_ground_strike_check():
+    core = FlightCore(CoreConfig.ideal())
+    core.reset(0, altitude_m=0.0, airspeed_eas_mps=10.0)
+    assert core.height_above_ground_m() == pytest.approx(-TERRAIN_ELEVATION_M, abs=1e-6)
+    for _ in range(100):  # 5 s at the trim command
+        core.step(core.setup.trim_command)
+        assert core.envelope_violation() is None
+        assert core.sim["gear/wow"] == 0.0
+    assert abs(core.last_true_state[0]) < 5.0
+    # 50 m above the terrain is still where an episode ends.
+    core.reset(0, altitude_m=TERRAIN_ELEVATION_M + 40.0, airspeed_eas_mps=10.0)
+    assert core.envelope_violation().startswith("ground strike")
 
 
 def test_non_finite_state_terminates():

@@ -112,6 +112,16 @@ def test_trim_cli_prints_json_with_modes():
     assert set(out["modes"]) == {"short_period", "phugoid", "roll", "spiral", "dutch_roll"}
 
 
+def test_trim_cli_at_sea_level_the_floor_of_the_envelope():
+    done = _run_trim_cli("--altitude-m", "0", "--veas-mps", "10", "--json", "--modes")
+    assert done.returncode == 0, done.stderr
+    out = json.loads(done.stdout)
+    assert out["altitude_m"] == 0.0
+    assert out["airspeed_tas_mps"] == pytest.approx(10.0, rel=1e-4)  # standard sea-level density
+    assert out["residual_accel_mps2"] < 1e-3 and abs(out["elevator_deg"]) < 15.0
+    assert all(out["modes"][name]["stable"] for name in ("short_period", "phugoid", "roll", "dutch_roll"))
+
+
 def test_trim_cli_fails_outside_the_envelope_with_a_reason():
     done = _run_trim_cli("--altitude-m", "30000", "--veas-mps", "10", "--json")
     assert done.returncode != 0
