@@ -39,6 +39,10 @@ THROTTLE_GUESS_PER_TAS_S_PER_M = 0.014
 # filter's stable range, so the rotors follow their speed controllers' own 0.03 s loop.
 FAST_SETTLE_LAG_PER_S = 50.0
 
+# Initial-condition passes until alpha-dot is the state's own (each pass cuts the error about 100-fold).
+MAX_ALPHADOT_PASSES = 6
+ALPHADOT_TOL_RADPS = 1e-9
+
 # JSBSim's FCS inputs, normalised to +-1 (aileron, elevator, rudder) or 0..1 (throttle).
 CONTROL_INPUTS = ("fcs/aileron-cmd-norm", "fcs/elevator-cmd-norm", "fcs/rudder-cmd-norm",
                   "fcs/throttle-cmd-norm[0]")
@@ -157,7 +161,13 @@ class Simulation:
     def set_initial_conditions(self, altitude_m: float, airspeed_tas_mps: float, alpha_deg: float = 0.0,
                                pitch_deg: float | None = None, roll_deg: float = 0.0, heading_deg: float = 0.0,
                                beta_deg: float = 0.0, rates_radps=(0.0, 0.0, 0.0)) -> None:
-        """Place the aircraft and run JSBSim's initial-condition pass."""
+        """Place the aircraft and run JSBSim's initial-condition pass.
+
+        JSBSim takes alpha-dot from the accelerations of the pass before, and the model's alpha-dot
+        terms feed it back into the accelerations; the pass is repeated until alpha-dot belongs to
+        this state (two or three passes), so that the accelerations do not depend on the state
+        placed before.
+        """
         f = self.fdm
         f["ic/h-sl-ft"] = altitude_m * M_TO_FT
         f["ic/vt-fps"] = airspeed_tas_mps * M_TO_FT
@@ -169,6 +179,11 @@ class Simulation:
         f["ic/p-rad_sec"], f["ic/q-rad_sec"], f["ic/r-rad_sec"] = rates_radps
         if not self.fdm.run_ic():
             raise TrimError("JSBSim rejected the initial conditions")
+        for _ in range(MAX_ALPHADOT_PASSES):
+            alphadot = f["aero/alphadot-rad_sec"]
+            f.run_ic()
+            if abs(f["aero/alphadot-rad_sec"] - alphadot) < ALPHADOT_TOL_RADPS:
+                break
         # JSBSim keeps any difference between its stored airspeed and ground velocity as a wind
         # (loading an initial-condition file into a used instance leaves one); that wind would
         # silently shift alpha and stay in the atmosphere.

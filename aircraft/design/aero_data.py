@@ -30,7 +30,7 @@ def _cruise_alpha_deg(polar_cl: np.ndarray, alpha_deg: np.ndarray, cl_required: 
 
 
 def compute_aero_data(geometry: AircraftGeometry | None = None) -> dict:
-    """All tables the XML writer needs, computed from ``geometry`` (about 20 s on two cores)."""
+    """All tables the XML writer needs, computed from ``geometry``, with the checks the build prints."""
     geometry = geometry or AircraftGeometry()
     from . import analysis as an
     from .propeller import propeller_coefficients
@@ -52,6 +52,7 @@ def compute_aero_data(geometry: AircraftGeometry | None = None) -> dict:
 
     polar = an.longitudinal_polar(geometry, cg_x_m)
     slopes = an.lift_slopes(geometry)
+    incidence_deg = an.lattice_wing_incidence_deg(geometry, cg_x_m, alpha_cruise, cl_cruise)
     data = {
         "meta": {
             "generator": "aircraft.design.aero_data.compute_aero_data",
@@ -76,8 +77,20 @@ def compute_aero_data(geometry: AircraftGeometry | None = None) -> dict:
         },
         "polar": polar,
         "sideslip": an.sideslip_increments(geometry, cg_x_m, alpha_cruise),
-        "vlm": an.vlm_derivatives(geometry, cg_x_m),
+        "vlm": an.vlm_derivatives(geometry, cg_x_m, incidence_deg),
+        "vlm_setup": {"spanwise_panels_per_segment": an.VLM_MESH.spanwise, "chordwise_panels": an.VLM_MESH.chordwise,
+                      "wing_incidence_deg": incidence_deg},
+        "profile": {"Cnr": an.profile_yaw_damping(geometry, cl_cruise)},
+        "downwash_lag": an.downwash_lag_derivatives(geometry, cg_x_m, slopes),
         "controls": an.control_increments(geometry, cg_x_m, slopes),
+        "apparent_mass_per_density": an.apparent_mass_per_density(geometry, cg_x_m),
+        # Checks the build prints: the lattice's convergence at the cruise angle of attack, and the
+        # lattice's own value of the lifting-line factor of the ailerons' induced yaw.
+        "checks": {
+            "mesh_convergence": an.mesh_convergence(geometry, cg_x_m, incidence_deg, alpha_cruise),
+            "aileron_induced_yaw": {"lifting_line_factor": an.AILERON_INDUCED_YAW_FACTOR,
+                                    **an.aileron_induced_yaw_factor(geometry, cg_x_m, incidence_deg, alpha_cruise)},
+        },
     }
     prop = propeller_coefficients(geometry.propeller)
     data["propeller"] = {"J": prop.advance_ratio, "CT": prop.thrust_coeff, "CP": prop.power_coeff}

@@ -10,14 +10,22 @@ Methods, one per kind of number:
   (Nelson, *Flight Stability and Automatic Control*, §2.4) and the tail efficiency ``η_t``.
 * Lateral/directional and rate derivatives (CYβ, Clβ, Cnβ, CYp, Clp, Cnp, CLq, Cmq, CYq, Cnq, CYr,
   Clr, Cnr) against angle of attack: AeroSandbox's vortex-lattice method (inviscid, tail downwash
-  included), in its linear range; the tables hold their end values beyond it.
+  included), in its linear range; the tables hold their end values beyond it. The rates turn the
+  aircraft about its CG, the mesh comes from a convergence study (``mesh_convergence``), and Cnr
+  gains the wing's profile-drag part, which an inviscid lattice cannot see.
+* Downwash lag (CLα̇, Cmα̇): the tail-volume estimate with the polar's downwash gradient.
 * Sideslip increments of lift, drag and pitching moment (even in β): ``AeroBuildup`` in sideslip.
 * Control surfaces, which AeroSandbox's 3-D methods do not model: the section increments Δcl, Δcd,
   Δcm of the deflected airfoil come from NeuralFoil (``Airfoil.add_control_surface``), and are
   carried to the aircraft by strip theory with the 3-D lift-slope ratio ``k = CLα_3D / a0``
   (the textbook aileron / elevator / rudder estimates, Nelson §2.4, §5.3 and Etkin & Reid §5.7).
   Adverse yaw of the ailerons comes from the profile-drag asymmetry per side and from the induced
-  drag of the lift increment, ``ΔCn = −ΔCl·CL/(π·AR)``.
+  drag of the antisymmetric load, ``ΔCn_s = −3·CL·ΔCl_s/(π·AR)`` (lifting-line theory, checked
+  with the lattice by ``aileron_induced_yaw_factor``), both in stability axes.
+
+Axes: lift, drag and side force in wind axes; rolling, pitching and yawing moments in body axes
+about the CG, except the aileron's, which strip theory gives in stability axes and the XML writer
+rotates to body axes with the angle of attack.
 
 Reynolds number is the flight-condition variable: at equivalent airspeeds of 8-12 m/s, Mach stays
 below 0.15 while the Reynolds number on the mean chord falls from about 1.9e6 to 0.4e6 between sea
@@ -26,6 +34,8 @@ so the Mach number that goes with it is the one the aircraft meets there.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -40,6 +50,7 @@ ALPHA_DEG = (-90, -60, -45, -30, -20, -16, -12, -10, -8, -6, -4, -2, 0, 2, 4, 6,
 VLM_ALPHA_DEG = (-10, -6, -2, 0, 2, 4, 6, 8, 10, 12, 14)
 BETA_DEG = (0, 4, 8, 12, 16, 20, 30)
 DEFLECTION_DEG = (-30, -25, -20, -15, -10, -6, -3, 0, 3, 6, 10, 15, 20, 25, 30)
+LATTICE_REYNOLDS = 1.0e6  # the flight condition of the vortex lattice (mid-envelope)
 
 
 def flight_condition(reynolds: float, geometry: AircraftGeometry) -> tuple[float, float]:
@@ -75,26 +86,69 @@ def _operating_point(reynolds: float, geometry: AircraftGeometry, alpha_deg=0.0,
                               alpha=alpha_deg, beta=beta_deg)
 
 
-def _wing(geometry: AircraftGeometry):
+# The vortex lattice sees only a section's mean line, and AeroSandbox's lattice resolves the
+# FX 63-137's strong aft camber poorly: its lift at the cruise angle of attack converges as 1/N with
+# the chordwise panels (0.52, 0.63, 0.69, 0.72 with 6, 12, 24, 48), and Clr and Cnp with it. For
+# the lattice the wing is therefore a flat plate (a symmetric section) at the incidence that makes
+# the lattice lift what the viscous polar lifts at the cruise angle of attack: the same spanwise
+# load at the same lift, and a lattice that converges at a few chordwise panels.
+LATTICE_SECTION = "naca0010"
+
+
+def lattice_wing_incidence_deg(geometry: AircraftGeometry, cg_x_m: float, alpha_deg: float,
+                               lift_coefficient: float, mesh: LatticeMesh | None = None) -> float:
+    """Root incidence of the flat lattice wing at which the aircraft's lattice lift coefficient at
+    ``alpha_deg`` is ``lift_coefficient``: secant steps from 0° and 1° (the lift is almost linear
+    in the incidence; only the panels' tilt is not)."""
+    mesh = mesh or VLM_MESH
+
+    def lift(incidence_deg: float) -> float:
+        return _lattice_point(geometry, cg_x_m, incidence_deg, alpha_deg, mesh, derivatives=False)["CL"]
+
+    x0, x1 = 0.0, 1.0
+    f0, f1 = lift(x0) - lift_coefficient, lift(x1) - lift_coefficient
+    for _ in range(4):
+        x0, x1, f0 = x1, x1 - f1 * (x1 - x0) / (f1 - f0), f1
+        f1 = lift(x1) - lift_coefficient
+        if abs(f1) < 1e-4 * lift_coefficient:
+            break
+    return x1
+
+
+def _wing(geometry: AircraftGeometry, extra_twist: tuple[tuple[float, float], ...] = (), name: str = "wing",
+          mirrored: bool | None = None, lattice_incidence_deg: float | None = None):
+    """The main wing, symmetric; or, when ``mirrored`` is given, one half of it (the right one, or the
+    left one if ``mirrored``) with ``extra_twist`` ((y in m, degrees), ...) added at those stations
+    and linearly in between. With ``lattice_incidence_deg`` the wing as the lattice sees it: flat
+    sections (``LATTICE_SECTION``) at that root incidence, washout kept."""
     import aerosandbox as asb
 
     w = geometry.wing
-    af = asb.Airfoil(w.airfoil)
+    if lattice_incidence_deg is None:
+        af, incidence_deg = asb.Airfoil(w.airfoil), w.incidence_deg
+    else:
+        af, incidence_deg = asb.Airfoil(LATTICE_SECTION), lattice_incidence_deg
     half_span = w.span_m / 2.0
     tip_x = (w.root_chord_m - w.tip_chord_m) / 4.0  # unswept quarter-chord line
     tip_z = (half_span - w.kink_y_m) * np.tan(np.radians(w.outer_dihedral_deg))
     a = geometry.aileron
     outer = half_span - w.kink_y_m
+    side = -1.0 if mirrored else 1.0
 
     def station(y_m: float, twist_extra_deg: float = 0.0):
         frac = (y_m - w.kink_y_m) / outer
         chord = w.root_chord_m + frac * (w.tip_chord_m - w.root_chord_m)
-        return asb.WingXSec(xyz_le=[frac * tip_x, y_m, frac * tip_z], chord=chord, airfoil=af,
-                            twist=w.incidence_deg + frac * w.tip_twist_deg + twist_extra_deg)
+        return asb.WingXSec(xyz_le=[frac * tip_x, side * y_m, frac * tip_z], chord=chord, airfoil=af,
+                            twist=incidence_deg + frac * w.tip_twist_deg + twist_extra_deg)
 
-    xsecs = [asb.WingXSec(xyz_le=[0, 0, 0], chord=w.root_chord_m, airfoil=af, twist=w.incidence_deg),
-             station(w.kink_y_m), station(a.inner_y_m), station(a.outer_y_m), station(half_span)]
-    return asb.Wing(name="wing", symmetric=True, xsecs=xsecs)
+    inner = [station(y, t) for y, t in extra_twist] if extra_twist else [station(a.inner_y_m), station(a.outer_y_m)]
+    xsecs = [asb.WingXSec(xyz_le=[0, 0, 0], chord=w.root_chord_m, airfoil=af, twist=incidence_deg),
+             station(w.kink_y_m), *inner, station(half_span)]
+    if mirrored is None:
+        return asb.Wing(name=name, symmetric=True, xsecs=xsecs)
+    # AeroSandbox takes a surface's normal from the order of its sections: root to tip on the right,
+    # tip to root on the left, so that both halves lift upwards.
+    return asb.Wing(name=name, symmetric=False, xsecs=xsecs[::-1] if mirrored else xsecs)
 
 
 def _tail(surface: TailSurface, name: str, symmetric: bool, incidence_offset_deg: float = 0.0):
@@ -108,13 +162,21 @@ def _tail(surface: TailSurface, name: str, symmetric: bool, incidence_offset_deg
     ])
 
 
-def airplane(geometry: AircraftGeometry, cg_x_m: float, parts=("wing", "htail", "vtail", "fuselage")):
-    """The AeroSandbox model of the aircraft (or of some of its parts), moments about the CG."""
+def airplane(geometry: AircraftGeometry, cg_x_m: float, parts=("wing", "htail", "vtail", "fuselage"),
+             lattice_incidence_deg: float | None = None):
+    """The AeroSandbox model of the aircraft (or of some of its parts), with the CG at the origin.
+
+    Moments are taken about ``xyz_ref``, but AeroSandbox's vortex lattice turns the body rates
+    p, q, r about the geometry origin. With the origin at the wing-root leading edge a pitch rate
+    would also move the CG, adding CL_alpha * 2 x_cg / c to CLq (about +4.3 here). Moving the
+    geometry so that the CG is the origin makes every rate derivative one about the CG.
+    ``lattice_incidence_deg``: the wing as the vortex lattice sees it (see ``LATTICE_SECTION``).
+    """
     import aerosandbox as asb
 
     wings = []
     if "wing" in parts:
-        wings.append(_wing(geometry))
+        wings.append(_wing(geometry, lattice_incidence_deg=lattice_incidence_deg))
     if "htail" in parts:
         wings.append(_tail(geometry.horizontal_tail, "htail", symmetric=True))
     if "vtail" in parts:
@@ -123,8 +185,9 @@ def airplane(geometry: AircraftGeometry, cg_x_m: float, parts=("wing", "htail", 
     if "fuselage" in parts:
         fuselages.append(asb.Fuselage(name="pod_and_boom", xsecs=[
             asb.FuselageXSec(xyz_c=[x, 0, 0], radius=r) for x, r in geometry.fuselage_stations_m]))
-    return asb.Airplane(name="solar_uav", xyz_ref=[cg_x_m, 0.0, geometry.cg_z_m], wings=wings,
-                        fuselages=fuselages, s_ref=geometry.reference_area_m2,
+    to_cg = [-cg_x_m, 0.0, -geometry.cg_z_m]
+    return asb.Airplane(name="solar_uav", xyz_ref=[0.0, 0.0, 0.0], wings=[w.translate(to_cg) for w in wings],
+                        fuselages=[f.translate(to_cg) for f in fuselages], s_ref=geometry.reference_area_m2,
                         c_ref=geometry.reference_chord_m, b_ref=geometry.reference_span_m)
 
 
@@ -186,21 +249,87 @@ def sideslip_increments(geometry: AircraftGeometry, cg_x_m: float, alpha_deg: fl
 
 
 VLM_DERIVATIVES = ("CYb", "Clb", "Cnb", "CYp", "Clp", "Cnp", "CLq", "Cmq", "CYq", "Cnq", "CYr", "Clr", "Cnr")
+# Derivatives that vanish by symmetry; left out of the mesh-convergence criterion.
+SYMMETRY_ZERO = ("CYq", "Cnq")
 
 
-def vlm_derivatives(geometry: AircraftGeometry, cg_x_m: float) -> dict[str, np.ndarray]:
-    """Stability derivatives (per rad, rates non-dimensional) against α from the vortex lattice."""
+@dataclass(frozen=True)
+class LatticeMesh:
+    """Vortex-lattice panels per wing segment (between two sections) and along each chord.
+
+    Spanwise panels are evenly spaced: AeroSandbox's default cosine spacing puts sliver panels
+    (a thousandth of the chord wide) at both ends of every segment, and where two segments meet
+    those slivers make the influence matrix ill-conditioned: from 20 panels per segment on,
+    Cnp jumped from -0.04 to +0.9. Chordwise panels keep the cosine spacing, which resolves the
+    leading edge and the aft camber of the FX 63-137.
+    """
+
+    spanwise: int
+    chordwise: int
+
+    def doubled(self) -> LatticeMesh:
+        return LatticeMesh(2 * self.spanwise, 2 * self.chordwise)
+
+
+# Chosen by the convergence study in ``mesh_convergence`` (the build prints it): every derivative
+# at this mesh is within CONVERGENCE_TOLERANCE of its value on the mesh of twice the resolution.
+VLM_MESH = LatticeMesh(spanwise=8, chordwise=6)
+CONVERGENCE_TOLERANCE = 0.03
+
+
+def _vortex_lattice(plane, op_point, mesh: LatticeMesh):
     import aerosandbox as asb
 
-    plane = airplane(geometry, cg_x_m, parts=("wing", "htail", "vtail"))
-    out: dict[str, list[float]] = {k: [] for k in VLM_DERIVATIVES + ("CLa", "Cma")}
-    for a in VLM_ALPHA_DEG:
-        vlm = asb.VortexLatticeMethod(plane, _operating_point(1.0e6, geometry, alpha_deg=a),
-                                      spanwise_resolution=8, chordwise_resolution=6)
-        r = vlm.run_with_stability_derivatives()
-        for k, values in out.items():
-            values.append(float(np.asarray(r[k]).ravel()[0]))
-    return {k: np.array(v) for k, v in out.items()}
+    return asb.VortexLatticeMethod(plane, op_point, spanwise_resolution=mesh.spanwise,
+                                   spanwise_spacing_function=np.linspace, chordwise_resolution=mesh.chordwise)
+
+
+def _tail_efficiency(geometry: AircraftGeometry) -> float:
+    """The tails' dynamic-pressure ratio q_tail/q, which the lattice (one free stream) leaves out."""
+    eta = geometry.horizontal_tail.efficiency
+    if geometry.vertical_tail.efficiency != eta:
+        raise ValueError("the lattice applies one tail efficiency; the horizontal and vertical tails' differ")
+    return eta
+
+
+def _lattice_point(geometry: AircraftGeometry, cg_x_m: float, incidence_deg: float, alpha_deg: float,
+                   mesh: LatticeMesh, derivatives: bool = True) -> dict[str, float]:
+    """Lattice coefficients (and derivatives) of the aircraft at one α, the tails' share scaled by
+    their efficiency: wing alone + η (wing with tails − wing alone), the same η the polar and the
+    control surfaces use. The tails' share includes the wing's downwash on them."""
+    op = _operating_point(LATTICE_REYNOLDS, geometry, alpha_deg=alpha_deg)
+    keys = VLM_DERIVATIVES + ("CL", "CLa", "Cma") if derivatives else ("CL",)
+    runs = []
+    for parts in (("wing",), ("wing", "htail", "vtail")):
+        vlm = _vortex_lattice(airplane(geometry, cg_x_m, parts=parts, lattice_incidence_deg=incidence_deg), op, mesh)
+        r = vlm.run_with_stability_derivatives() if derivatives else vlm.run()
+        runs.append({k: float(np.asarray(r[k]).ravel()[0]) for k in keys})
+    eta = _tail_efficiency(geometry)
+    wing, whole = runs
+    return {k: wing[k] + eta * (whole[k] - wing[k]) for k in keys}
+
+
+def vlm_derivatives(geometry: AircraftGeometry, cg_x_m: float, incidence_deg: float,
+                    mesh: LatticeMesh = VLM_MESH) -> dict[str, np.ndarray]:
+    """Stability derivatives against α from the vortex lattice (wing at ``incidence_deg``, see
+    ``lattice_wing_incidence_deg``; tails at their efficiency, see ``_lattice_point``): rates
+    non-dimensional, angles per rad, moments in body axes about the CG, side force in wind axes
+    (AeroSandbox's conventions, which are JSBSim's)."""
+    points = [_lattice_point(geometry, cg_x_m, incidence_deg, a, mesh) for a in VLM_ALPHA_DEG]
+    return {k: np.array([p[k] for p in points]) for k in VLM_DERIVATIVES + ("CL", "CLa", "Cma")}
+
+
+def mesh_convergence(geometry: AircraftGeometry, cg_x_m: float, incidence_deg: float, alpha_deg: float,
+                     mesh: LatticeMesh = VLM_MESH) -> dict[str, dict[str, float]]:
+    """Each lattice derivative at ``mesh`` and at twice its resolution in both directions, at one α.
+
+    Returns ``{derivative: {"mesh": value, "doubled": value, "relative_change": |Δ| / |doubled|}}``.
+    """
+    coarse = _lattice_point(geometry, cg_x_m, incidence_deg, alpha_deg, mesh)
+    fine = _lattice_point(geometry, cg_x_m, incidence_deg, alpha_deg, mesh.doubled())
+    return {k: {"mesh": coarse[k], "doubled": fine[k],
+                "relative_change": abs(coarse[k] - fine[k]) / max(abs(fine[k]), 1e-12)}
+            for k in VLM_DERIVATIVES + ("CL", "CLa", "Cma") if k not in SYMMETRY_ZERO}
 
 
 def section_increments(airfoil_name: str, hinge_x: float, reynolds: float, mach: float) -> dict[str, np.ndarray]:
@@ -235,6 +364,15 @@ def _mach(reynolds: float, geometry: AircraftGeometry) -> float:
     return float(tas_mps / asb.Atmosphere(altitude=altitude_m).speed_of_sound())
 
 
+# Lifting-line theory with an elliptic base loading (Fourier term A1 = CL/(π AR)): the ailerons'
+# antisymmetric load (A2, with ΔCl = −π AR A2/4) meets the base loading in the induced drag as
+# 3 A1 A2, so the induced yawing moment is ΔCn = −3 CL ΔCl/(π AR) in stability axes (Phillips,
+# *Mechanics of Flight*, the induced yawing moment of a wing with antisymmetric loading). Once for the
+# base lift acting in the aileron's changed downwash, twice for the aileron's lift in the base
+# downwash. ``aileron_induced_yaw_factor`` checks it with the lattice.
+AILERON_INDUCED_YAW_FACTOR = 3.0
+
+
 def control_increments(geometry: AircraftGeometry, cg_x_m: float, lift_slopes: dict[str, float]) -> dict[str, np.ndarray]:
     """Per-surface coefficient increments on the (deflection, Re) grid, by strip theory.
 
@@ -242,6 +380,11 @@ def control_increments(geometry: AircraftGeometry, cg_x_m: float, lift_slopes: d
     edge down positive; the left one is its mirror image), ``elevator`` (one half of the elevator,
     trailing edge down positive) and ``rudder`` (trailing edge left positive). ``Cn_aileron_induced``
     is the adverse-yaw increment per unit aircraft lift coefficient.
+
+    Axes: forces in wind axes. The aileron's rolling and yawing moments are in stability axes (its
+    lift acts across the airflow and its drag along it; the writer rotates them to body axes with
+    the angle of attack); the tail surfaces' moments are in body axes (their forces act across the
+    surface and their arms run along the body axes).
     """
     w, a = geometry.wing, geometry.aileron
     S, b, c = geometry.reference_area_m2, geometry.reference_span_m, geometry.reference_chord_m
@@ -278,7 +421,7 @@ def control_increments(geometry: AircraftGeometry, cg_x_m: float, lift_slopes: d
         out["Cm_aileron"][:, j] = (normal * np.cos(dihedral) * (cg_x_m - x_quarter_chord_m) / c
                                    + k_wing * sec["dcm"] * int_c2 / (S * c))
         out["Cn_aileron"][:, j] = dcd * (int_cy / int_c) / b  # drag on the right wing yaws the nose right
-        out["Cn_aileron_induced"][:, j] = -cl_roll / (np.pi * geometry.aspect_ratio)
+        out["Cn_aileron_induced"][:, j] = -AILERON_INDUCED_YAW_FACTOR * cl_roll / (np.pi * geometry.aspect_ratio)
         # Elevator (one half) and rudder: tail sections, strip theory over the whole span.
         for name, surf, area, ac, mac in (("elevator", ht, s_half_m2, ht_ac, ht_mac),
                                           ("rudder", vt, s_fin_m2, vt_ac, vt_mac)):
@@ -316,13 +459,129 @@ def lift_slopes(geometry: AircraftGeometry) -> dict[str, float]:
     fin_flat = TailSurface(vt.airfoil, (vt.root_le_m[0], 0.0, 0.0), (vt.tip_le_m[0], height_m, 0.0),
                            vt.root_chord_m, vt.tip_chord_m, 0.0, vt.control_chord_fraction, vt.efficiency)
     slopes = {}
-    for key, wing in (("wing_3d", _wing(geometry)),
+    for key, wing in (("wing_3d", _wing(geometry, lattice_incidence_deg=0.0)),  # a slope: any incidence
                       ("elevator_3d", _tail(geometry.horizontal_tail, "htail", True)),
                       ("rudder_3d", _tail(fin_flat, "fin", True))):
         plane = asb.Airplane(wings=[wing], s_ref=wing.area(), c_ref=wing.mean_aerodynamic_chord(),
                              b_ref=wing.span())
         op = asb.OperatingPoint(velocity=20.0, alpha=2.0)
-        r = asb.VortexLatticeMethod(plane, op, spanwise_resolution=8, chordwise_resolution=6
-                                    ).run_with_stability_derivatives(alpha=True, beta=False, p=False, q=False, r=False)
+        r = _vortex_lattice(plane, op, VLM_MESH).run_with_stability_derivatives(
+            alpha=True, beta=False, p=False, q=False, r=False)
         slopes[key] = float(np.asarray(r["CLa"]).ravel()[0])
     return slopes
+
+
+def horizontal_tail_volume(geometry: AircraftGeometry, cg_x_m: float) -> tuple[float, float]:
+    """Tail arm l_t (m, CG to the tail's mean quarter chord) and tail volume S_t l_t / (S c)."""
+    arm_m = float(_mac_quarter_chord(geometry.horizontal_tail)[0] - cg_x_m)
+    area_m2 = 2.0 * _trapezoid_area_m2(geometry.horizontal_tail)
+    return arm_m, area_m2 * arm_m / (geometry.reference_area_m2 * geometry.reference_chord_m)
+
+
+def downwash_lag_derivatives(geometry: AircraftGeometry, cg_x_m: float, slopes: dict[str, float]) -> dict[str, float]:
+    """CLα̇ and Cmα̇ (per unit α̇ c/2V) of the tail's downwash lag.
+
+    The tail meets the downwash the wing shed l_t/V earlier, ε(t) = dε/dα · α(t − l_t/V), so its
+    angle of attack gains dε/dα · α̇ · l_t/V. With the downwash the polar uses, ε = 2 CL_w/(π AR):
+    CLα̇ = 2 a_t η V_H dε/dα and Cmα̇ = −2 a_t η V_H (l_t/c) dε/dα (Etkin & Reid §5.5; Nelson §3.5),
+    a_t the tail's lift slope on its own area, V_H its volume. The lattice, being steady, has none.
+    """
+    arm_m, volume = horizontal_tail_volume(geometry, cg_x_m)
+    downwash_slope = 2.0 * slopes["wing_3d"] / (np.pi * geometry.aspect_ratio)
+    cl_adot = 2.0 * slopes["elevator_3d"] * geometry.horizontal_tail.efficiency * volume * downwash_slope
+    return {"CLadot": cl_adot, "Cmadot": -cl_adot * arm_m / geometry.reference_chord_m,
+            "downwash_slope": downwash_slope}
+
+
+def _wing_chord_m(geometry: AircraftGeometry, y_m: np.ndarray) -> np.ndarray:
+    """Local chord of the wing at span stations |y| (m)."""
+    w = geometry.wing
+    frac = np.clip((np.abs(y_m) - w.kink_y_m) / (w.span_m / 2.0 - w.kink_y_m), 0.0, 1.0)
+    return w.root_chord_m + frac * (w.tip_chord_m - w.root_chord_m)
+
+
+def profile_yaw_damping(geometry: AircraftGeometry, lift_coefficient: float) -> np.ndarray:
+    """Cnr from the wing's profile drag, against the Reynolds breakpoints; the inviscid lattice has none.
+
+    In a yaw rate r the section at y meets the air at V − r y, so its drag changes by
+    −2 (r y / V) q c c_d, and Cnr = −4/(S b²) ∫ c c_d y² dy over the span (−c_d/3 for a
+    rectangular wing). c_d is NeuralFoil's section drag at the lift coefficient ``lift_coefficient``.
+    """
+    import aerosandbox as asb
+
+    half_span = geometry.wing.span_m / 2.0
+    y = np.linspace(-half_span, half_span, 401)
+    chord = _wing_chord_m(geometry, y)
+    moment_m4 = float(np.trapezoid(chord * y**2, y))
+    section_alpha_deg = np.linspace(-8.0, 8.0, 33)
+    out = []
+    for re in REYNOLDS:
+        r = asb.Airfoil(geometry.wing.airfoil).get_aero_from_neuralfoil(
+            alpha=section_alpha_deg, Re=re * float(np.mean(chord)) / geometry.reference_chord_m,
+            mach=_mach(re, geometry), model_size="large")
+        cd = float(np.interp(lift_coefficient, np.asarray(r["CL"], float), np.asarray(r["CD"], float)))
+        out.append(-4.0 * cd * moment_m4 / (geometry.reference_area_m2 * geometry.reference_span_m**2))
+    return np.array(out)
+
+
+def aileron_induced_yaw_factor(geometry: AircraftGeometry, cg_x_m: float, incidence_deg: float, alpha_deg: float,
+                               twist_deg: float = 2.0, mesh: LatticeMesh = VLM_MESH) -> dict[str, float]:
+    """Independent check of ``AILERON_INDUCED_YAW_FACTOR`` with the vortex lattice.
+
+    The ailerons are modelled as antisymmetric twist (±``twist_deg``) over their span, which gives
+    the same spanwise load change as a flap; the factor k in ΔCn_s = −k CL ΔCl_s/(π AR) is read
+    from the stability-axis moments with and without it. Returns k and the lift coefficient.
+    """
+    import aerosandbox as asb
+
+    ramp_m = 0.2  # twist blends in over this width: a sliver segment would make the lattice ill-conditioned
+    a = geometry.aileron
+    results = []
+    for twist in (0.0, twist_deg):
+        extra = ((a.inner_y_m, 0.0), (a.inner_y_m + ramp_m, twist), (a.outer_y_m - ramp_m, twist), (a.outer_y_m, 0.0))
+        right = _wing(geometry, extra_twist=extra, name="right_wing", mirrored=False,
+                      lattice_incidence_deg=incidence_deg)
+        left = _wing(geometry, extra_twist=tuple((y, -t) for y, t in extra), name="left_wing", mirrored=True,
+                     lattice_incidence_deg=incidence_deg)
+        plane = asb.Airplane(xyz_ref=[0.0, 0.0, 0.0], wings=[w.translate([-cg_x_m, 0.0, -geometry.cg_z_m])
+                                                             for w in (right, left)],
+                             s_ref=geometry.reference_area_m2, c_ref=geometry.reference_chord_m,
+                             b_ref=geometry.reference_span_m)
+        results.append(_vortex_lattice(plane, _operating_point(LATTICE_REYNOLDS, geometry, alpha_deg=alpha_deg),
+                                       mesh).run())
+    alpha = np.radians(alpha_deg)
+    d_roll = float(results[1]["Cl"] - results[0]["Cl"])
+    d_yaw = float(results[1]["Cn"] - results[0]["Cn"])
+    d_roll_s = d_roll * np.cos(alpha) + d_yaw * np.sin(alpha)
+    d_yaw_s = d_yaw * np.cos(alpha) - d_roll * np.sin(alpha)
+    cl = float(results[0]["CL"])
+    return {"factor": -d_yaw_s * np.pi * geometry.aspect_ratio / (cl * d_roll_s), "CL": cl}
+
+
+def apparent_mass_per_density(geometry: AircraftGeometry, cg_x_m: float) -> dict[str, float]:
+    """Strip-theory apparent mass of the lifting surfaces per unit air density (m³ and m⁵).
+
+    A thin section of chord c moving normal to itself through still air carries ρ π c²/4 per unit
+    span at its mid-chord, and turning about its mid-chord an apparent inertia ρ π c⁴/128. Summed
+    over the wing: the apparent mass in heave and the apparent inertia in roll (about the x axis);
+    over the wing and the horizontal tail: the apparent inertia in pitch about the CG, where the
+    tail's share dominates through its arm. Strip theory ignores the tip relief of a finite
+    surface, so these are upper bounds (a few per cent at the wing's aspect ratio 15.6).
+    """
+    half_span = geometry.wing.span_m / 2.0
+    y = np.linspace(-half_span, half_span, 401)
+    chord = _wing_chord_m(geometry, y)
+    per_span = np.pi * chord**2 / 4.0
+    # Unswept quarter-chord line at x = c_root/4, so the mid-chord lies at c_root/4 + c/4.
+    mid_chord_x = geometry.wing.root_chord_m / 4.0 + chord / 4.0
+    pitch = float(np.trapezoid(per_span * ((mid_chord_x - cg_x_m) ** 2 + chord**2 / 32.0), y))
+    ht = geometry.horizontal_tail
+    t = np.linspace(0.0, 1.0, 201)
+    tail_chord = ht.root_chord_m + t * (ht.tip_chord_m - ht.root_chord_m)
+    tail_le_x = ht.root_le_m[0] + t * (ht.tip_le_m[0] - ht.root_le_m[0])
+    tail_span_m = 2.0 * (ht.tip_le_m[1] - ht.root_le_m[1])  # both halves
+    tail_per_span = np.pi * tail_chord**2 / 4.0
+    pitch += tail_span_m * float(np.trapezoid(
+        tail_per_span * ((tail_le_x + tail_chord / 2.0 - cg_x_m) ** 2 + tail_chord**2 / 32.0), t))
+    return {"heave_m3": float(np.trapezoid(per_span, y)), "roll_m5": float(np.trapezoid(per_span * y**2, y)),
+            "pitch_m5": pitch}
