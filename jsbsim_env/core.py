@@ -39,7 +39,7 @@ from jsbsim_env.sim import (
 from jsbsim_env.trim_table import TrimTable
 
 # The measured state (SPEC Eq. 18) in SI units: angles in rad, rates in rad/s, the three
-# surfaces as positions in rad, the throttle as rotor-speed reference over its maximum (0..1).
+# surfaces as positions in rad, the throttle as the rotor-speed reference over the full-throttle speed (0..1).
 STATE_NAMES = ("altitude_m", "roll_rad", "pitch_rad", "p_radps", "q_radps", "r_radps", "airspeed_eas_mps",
                "alpha_rad", "beta_rad", "aileron_rad", "elevator_rad", "rudder_rad", "throttle")
 N_STATE = len(STATE_NAMES)
@@ -49,7 +49,6 @@ NOISE_SIGMA = np.array([0.0, 1e-3, 1e-3, 1e-3, 1e-3, 1e-3, 0.01, 1e-3, 1e-3, 0.0
 COMMAND_LOW = np.array([-SURFACE_LIMITS_DEG["aileron"], -SURFACE_LIMITS_DEG["elevator"], -SURFACE_LIMITS_DEG["rudder"],
                         0.0])
 COMMAND_HIGH = -COMMAND_LOW + np.array([0.0, 0.0, 0.0, 1.0])
-MAX_ROTOR_RPM = 1800.0
 DEG_TO_RAD = math.pi / 180.0
 EARTH_RADIUS_M = 6_371_000.0  # mean radius: local north/east over a route of tens of km
 
@@ -171,7 +170,7 @@ class FlightCore:
         self._get_state = [getter(n) for n in (
             "position/h-sl-meters", "attitude/phi-rad", "attitude/theta-rad", "velocities/p-rad_sec",
             "velocities/q-rad_sec", "velocities/r-rad_sec", "velocities/vt-fps", "aero/alpha-rad", "aero/beta-rad",
-            "fcs/aileron-pos-deg", "fcs/elevator-pos-deg", "fcs/rudder-pos-deg", "fcs/rotor-speed-ref-rpm",
+            "fcs/aileron-pos-deg", "fcs/elevator-pos-deg", "fcs/rudder-pos-deg", "fcs/throttle-ref-norm",
             "atmosphere/rho-slugs_ft3", "attitude/psi-rad", "position/h-agl-ft")]
         self._set_command = [setter(n) for n in CONTROL_INPUTS]
         self._set_gust = [setter(f"atmosphere/gust-{a}-fps") for a in ("north", "east", "down")]
@@ -315,7 +314,7 @@ class FlightCore:
         g = self._get_state
         return [g[0](), g[1](), g[2](), g[3](), g[4](), g[5](), math.sqrt(g[13]() / RHO0_SLUG_FT3) * g[6]() * FT_TO_M,
                 g[7](), g[8](), g[9]() * DEG_TO_RAD, g[10]() * DEG_TO_RAD, g[11]() * DEG_TO_RAD,
-                g[12]() / MAX_ROTOR_RPM]
+                g[12]()]
 
     def height_above_ground_m(self) -> float:
         """Height above the simulated terrain (``sim.TERRAIN_ELEVATION_M``), for the ground-strike check."""

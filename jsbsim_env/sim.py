@@ -32,8 +32,9 @@ ALTITUDE_RANGE_M = (0.0, 20000.0)  # the flight envelope of the aircraft (SPEC s
 TERRAIN_ELEVATION_M = ALTITUDE_RANGE_M[0] - 100.0
 EAS_RANGE_MPS = (8.0, 12.0)
 DEFAULT_SIM_RATE_HZ = 120.0
-# Trim's first throttle guess per m/s of true airspeed (cruise trims lie at 0.013-0.015).
-THROTTLE_GUESS_PER_TAS_S_PER_M = 0.014
+# Trim's first guess of the rotor speed per m/s of true airspeed: cruise trims lie at 24-26 rpm per
+# m/s (about a constant advance ratio at constant EAS). The full-throttle speed turns it into a throttle.
+ROTOR_RPM_GUESS_PER_TAS_MPS = 25.0
 
 # Rotor reference lag during a fast settle: a tenth of a 120 Hz step, well inside the Tustin
 # filter's stable range, so the rotors follow their speed controllers' own 0.03 s loop.
@@ -284,7 +285,8 @@ class Simulation:
         tas_mps = airspeed_eas_mps * math.sqrt(RHO0_KG_M3 / self.density_kg_m3(altitude_m))
         # Start where the rotor speed scales with true airspeed (constant advance ratio at constant
         # EAS): away from the motor's power limit, where the throttle has no effect on thrust.
-        x = np.array([0.0, 0.0, float(np.clip(THROTTLE_GUESS_PER_TAS_S_PER_M * tas_mps, 0.05, 0.9))])
+        throttle_guess = ROTOR_RPM_GUESS_PER_TAS_MPS * tas_mps / self.fdm["fcs/rotor-speed-full-rpm"]
+        x = np.array([0.0, 0.0, float(np.clip(throttle_guess, 0.05, 0.9))])
         steps = np.array([0.05, 0.05, 0.002])
         scale = np.array([1.0, 1.0, 10.0])  # weight the pitch acceleration like the translational ones
         bounds = (np.array([-10.0, -30.0, 0.0]), np.array([14.0, 30.0, 1.0]))

@@ -31,13 +31,41 @@ def envelope():
     return points
 
 
+def full_throttle_rpm(altitude_m: float) -> float:
+    sim = Simulation()
+    sim.density_kg_m3(altitude_m)  # places the aircraft at that altitude
+    return sim["fcs/rotor-speed-full-rpm"]
+
+
+def test_full_throttle_is_full_motor_power_at_every_altitude():
+    """The throttle range means something everywhere: at full throttle the motors reach their power
+    limit at the reference EAS (10 m/s), at sea level as at 20 km, and the speed they need rises
+    as the air thins."""
+    speeds = []
+    for altitude_m in (0.0, 10000.0, 20000.0):
+        sim = Simulation()
+        tas = 10.0 * math.sqrt(1.225 / sim.density_kg_m3(altitude_m))
+        sim.set_initial_conditions(altitude_m, tas)
+        sim.set_controls(0.0, 0.0, 0.0, 1.0)
+        for _ in range(300):  # the rotors spin up while the aircraft is held at the airspeed
+            for _ in range(6):
+                sim.fdm.run()
+            sim.set_initial_conditions(altitude_m, tas)
+        rpm = sim["propulsion/engine[0]/propeller-rpm"]
+        speeds.append(rpm)
+        assert sim["fcs/throttle-pos-norm[0]"] == pytest.approx(1.0), altitude_m  # the motors' power limit
+        assert sim["propulsion/engine[0]/propeller-power-ftlbps"] * 1.3558179 == pytest.approx(5000.0, rel=0.01)
+        assert rpm == pytest.approx(sim["fcs/rotor-speed-full-rpm"], rel=0.01), altitude_m
+    assert speeds[0] < speeds[1] < speeds[2] < 1800.0
+
+
 def test_trim_converges_inside_the_limits_everywhere(envelope):
     for trim, _ in envelope:
         where = f"{trim.altitude_m:g} m, {trim.airspeed_eas_mps:g} m/s"
         assert trim.residual_accel_mps2 < 1e-3 and trim.residual_ang_accel_radps2 < 1e-4, where
         assert abs(trim.elevator_deg) < 30.0 * 0.5, where  # half the travel is left for control
         assert 0.0 < trim.throttle < 0.9, where  # margin at 20 km too
-        assert trim.rotor_rpm == pytest.approx(1800.0 * trim.throttle, rel=0.01), where
+        assert trim.rotor_rpm == pytest.approx(full_throttle_rpm(trim.altitude_m) * trim.throttle, rel=0.01), where
         assert trim.pitch_deg == pytest.approx(trim.alpha_deg, abs=1e-6), where  # level flight
         # Equivalent airspeed is what was asked for.
         rho = trim.airspeed_eas_mps ** 2 / trim.airspeed_tas_mps ** 2 * 1.225

@@ -500,27 +500,36 @@ def _wing_chord_m(geometry: AircraftGeometry, y_m: np.ndarray) -> np.ndarray:
     return w.root_chord_m + frac * (w.tip_chord_m - w.root_chord_m)
 
 
+def yaw_damping_per_section_drag(geometry: AircraftGeometry) -> float:
+    """Cnr per unit section drag coefficient: −4/(S b²) ∫ c y² dy over the span (−1/3 for a
+    rectangular wing).
+
+    In a yaw rate r the section at y meets the air at V − r y, so its drag changes by
+    −2 (r y / V) q c c_d; its arm is y.
+    """
+    half_span = geometry.wing.span_m / 2.0
+    y = np.linspace(-half_span, half_span, 401)
+    moment_m4 = float(np.trapezoid(_wing_chord_m(geometry, y) * y**2, y))
+    return -4.0 * moment_m4 / (geometry.reference_area_m2 * geometry.reference_span_m**2)
+
+
 def profile_yaw_damping(geometry: AircraftGeometry, lift_coefficient: float) -> np.ndarray:
     """Cnr from the wing's profile drag, against the Reynolds breakpoints; the inviscid lattice has none.
 
-    In a yaw rate r the section at y meets the air at V − r y, so its drag changes by
-    −2 (r y / V) q c c_d, and Cnr = −4/(S b²) ∫ c c_d y² dy over the span (−c_d/3 for a
-    rectangular wing). c_d is NeuralFoil's section drag at the lift coefficient ``lift_coefficient``.
+    ``yaw_damping_per_section_drag`` times NeuralFoil's section drag at the lift coefficient
+    ``lift_coefficient``, at the mean chord's Reynolds number.
     """
     import aerosandbox as asb
 
-    half_span = geometry.wing.span_m / 2.0
-    y = np.linspace(-half_span, half_span, 401)
-    chord = _wing_chord_m(geometry, y)
-    moment_m4 = float(np.trapezoid(chord * y**2, y))
+    mean_chord_m = geometry.reference_area_m2 / geometry.wing.span_m
     section_alpha_deg = np.linspace(-8.0, 8.0, 33)
     out = []
     for re in REYNOLDS:
         r = asb.Airfoil(geometry.wing.airfoil).get_aero_from_neuralfoil(
-            alpha=section_alpha_deg, Re=re * float(np.mean(chord)) / geometry.reference_chord_m,
+            alpha=section_alpha_deg, Re=re * mean_chord_m / geometry.reference_chord_m,
             mach=_mach(re, geometry), model_size="large")
         cd = float(np.interp(lift_coefficient, np.asarray(r["CL"], float), np.asarray(r["CD"], float)))
-        out.append(-4.0 * cd * moment_m4 / (geometry.reference_area_m2 * geometry.reference_span_m**2))
+        out.append(cd * yaw_damping_per_section_drag(geometry))
     return np.array(out)
 
 

@@ -137,7 +137,10 @@ class AircraftGeometry:
         Rotor(position_m=(-0.9, 4.0, 0.0), sense=-1),
         Rotor(position_m=(-0.9, 9.5, 0.0), sense=+1),
     )
-    max_rotor_speed_rpm: float = 1800.0  # full throttle; tip speed 207 m/s, helical tip Mach 0.72 at 20 km
+    max_rotor_speed_rpm: float = 1800.0  # tip-speed limit: 207 m/s, helical tip Mach 0.72 at 20 km
+    # Full throttle commands the rotor speed at which the motors deliver full power at this
+    # equivalent airspeed and the present air density (see Systems/rotor_speed.xml).
+    throttle_reference_eas_mps: float = 10.0
     rotor_inertia_kg_m2: float = 0.3  # propeller and motor rotor about the shaft (carbon blades, 1.5 kg)
     # Shaft power per motor: twice what cruise at 20 km and 12 m/s EAS needs, which sets the margin
     # there; near sea level it caps the rotor speed the throttle can command.

@@ -200,3 +200,18 @@ def propeller_coefficients(
         j_values = _J_STEP * np.arange(k)
     ct, cp = np.array(rows).reshape(-1, 2).T
     return PropellerCoefficients(advance_ratio=j_values, thrust_coeff=ct, power_coeff=cp)
+
+
+def full_power_speed_rpm(advance_ratio: np.ndarray, power_coeff: np.ndarray, diameter_m: float, power_w: float,
+                         density_kg_m3: float, airspeed_mps: float) -> float:
+    """Rotor speed (rpm) at which the propeller absorbs ``power_w`` at ``airspeed_mps`` and ``density_kg_m3``.
+
+    Solves CP(J) rho n^3 D^5 = P with J = V/(n D) on the tabulated power coefficient; the absorbed
+    power rises monotonically with n over the table's range.
+    """
+    def excess_w(n_rps: float) -> float:
+        j = airspeed_mps / (n_rps * diameter_m)
+        return float(np.interp(j, advance_ratio, power_coeff)) * density_kg_m3 * n_rps**3 * diameter_m**5 - power_w
+
+    low_rps = max(airspeed_mps / (diameter_m * float(np.max(advance_ratio))), 0.1)
+    return 60.0 * brentq(excess_w, low_rps, 200.0)

@@ -367,7 +367,24 @@ def wing_leveler_system() -> str:
 """
 
 
-def rotor_speed_system(g: AircraftGeometry) -> str:
+# Density breakpoints (kg/m³) of the full-throttle rotor speed: from above 22 km to below sea level.
+THROTTLE_DENSITY_KG_M3 = (0.05, 0.06, 0.07, 0.08, 0.09, 0.1, 0.12, 0.15, 0.2, 0.25, 0.3, 0.4, 0.5, 0.65, 0.8,
+                          1.0, 1.15, 1.3)
+
+
+def full_throttle_speed_rpm(g: AircraftGeometry, data: dict) -> np.ndarray:
+    """Rotor speed of full throttle at each of ``THROTTLE_DENSITY_KG_M3``: where the motors deliver
+    full power at the reference equivalent airspeed, capped at the tip-speed limit."""
+    from .propeller import full_power_speed_rpm
+
+    prop = data["propeller"]
+    speeds = [full_power_speed_rpm(np.asarray(prop["J"]), np.asarray(prop["CP"]), g.propeller.diameter_m,
+                                   g.motor_max_power_w, rho, g.throttle_reference_eas_mps * np.sqrt(1.225 / rho))
+              for rho in THROTTLE_DENSITY_KG_M3]
+    return np.minimum(speeds, g.max_rotor_speed_rpm)
+
+
+def rotor_speed_system(g: AircraftGeometry, data: dict) -> str:
     rpm_to_rad = 2.0 * np.pi / 60.0
     ixx_slug_ft2 = g.rotor_inertia_kg_m2 * M_TO_FT**2 / 14.5939
     # Power (ft lbf/s) to add per rpm of speed error, per rad/s of rotor speed, for a closed-loop
@@ -402,29 +419,48 @@ def rotor_speed_system(g: AircraftGeometry) -> str:
       <clipto> <min> 0 </min> <max> 1 </max> </clipto>
       <output> fcs/throttle-pos-norm[{i}] </output>
     </fcs_function>""")
+    full = _table_1d("atmosphere/rho-slugs_ft3", [rho * SLUG_FT3_PER_KG_M3 for rho in THROTTLE_DENSITY_KG_M3],
+                     full_throttle_speed_rpm(g, data), "        ")
     return HEADER + f"""<!-- Speed-commanded electric drive. The throttle command sets a rotor-speed reference,
-     throttle x {fmt(g.max_rotor_speed_rpm)} rpm, that follows a first-order lag of {fmt(g.rotor_time_constant_s)} s with a
+     throttle x the full-throttle speed, that follows a first-order lag of {fmt(g.rotor_time_constant_s)} s with a
      {fmt(g.rotor_rate_limit_rpm_per_s)} rpm/s rate limit (SPEC section 1). Each motor's speed controller (ESC) delivers the
      propeller's absorbed power plus a correction proportional to the speed error, closing the
      rotor-speed loop with a {fmt(g.esc_time_constant_s)} s time constant, up to the motor's
-     {fmt(g.motor_max_power_w)} W. All rotors share the one command. -->
+     {fmt(g.motor_max_power_w)} W. All rotors share the one command.
+
+     The full-throttle speed is where the propellers absorb the motors' full power at EAS
+     {fmt(g.throttle_reference_eas_mps)} m/s and the present air density (blade-element tables), capped at
+     {fmt(g.max_rotor_speed_rpm)} rpm: a fixed maximum would leave most of the throttle range without effect near
+     sea level, where full power is reached at a third of the speed it takes at 20 km. -->
 <system name="rotor_speed">
   <!-- The reference's lag (1/s) and rate limit (rpm/s) are properties only so that a simulation
        can be initialised quickly (jsbsim_env.sim.Simulation.settle_actuators); flight uses these values. -->
   <property value="{fmt(1.0 / g.rotor_time_constant_s)}">fcs/rotor-lag-per-s</property>
   <property value="{fmt(g.rotor_rate_limit_rpm_per_s)}">fcs/rotor-rate-limit-rpm_s</property>
   <channel name="rotor speed reference">
-    <pure_gain name="fcs/rotor-speed-cmd-rpm">
-      <input> fcs/throttle-cmd-norm[0] </input>
-      <gain> {fmt(g.max_rotor_speed_rpm)} </gain>
+    <fcs_function name="fcs/rotor-speed-full-rpm">
+      <function>
+{full}
+      </function>
+    </fcs_function>
+    <fcs_function name="fcs/rotor-speed-cmd-rpm">
+      <function>
+        <product> <property> fcs/throttle-cmd-norm[0] </property> <property> fcs/rotor-speed-full-rpm </property> </product>
+      </function>
       <clipto> <min> 0 </min> <max> {fmt(g.max_rotor_speed_rpm)} </max> </clipto>
-    </pure_gain>
+    </fcs_function>
     <actuator name="fcs/rotor-speed-ref-rpm">
       <input> fcs/rotor-speed-cmd-rpm </input>
       <lag> fcs/rotor-lag-per-s </lag>
       <rate_limit> fcs/rotor-rate-limit-rpm_s </rate_limit>
       <clipto> <min> 0 </min> <max> {fmt(g.max_rotor_speed_rpm)} </max> </clipto>
     </actuator>
+    <!-- The throttle position the controllers observe: the reference over the full-throttle speed. -->
+    <fcs_function name="fcs/throttle-ref-norm">
+      <function>
+        <quotient> <property> fcs/rotor-speed-ref-rpm </property> <property> fcs/rotor-speed-full-rpm </property> </quotient>
+      </function>
+    </fcs_function>
   </channel>
   <channel name="speed controllers">
 {chr(10).join(escs)}
@@ -691,7 +727,7 @@ def aircraft_files(g: AircraftGeometry, data: dict) -> dict[str, str]:
         "Engines/motor.xml": motor(g),
         "Engines/propeller.xml": propeller(g, data),
         "Systems/scaling.xml": scaling_system(g, data),
-        "Systems/rotor_speed.xml": rotor_speed_system(g),
+        "Systems/rotor_speed.xml": rotor_speed_system(g, data),
         "Systems/gust_rates.xml": gust_rates_system(),
         "Systems/wing_leveler.xml": wing_leveler_system(),
         "FlightControl.xml": flight_control(g),
