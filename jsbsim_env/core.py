@@ -26,6 +26,7 @@ import numpy as np
 
 from aircraft.design.xml_writer import INERTIA_SCALE, TERMS
 from jsbsim_env import disturbances as dist
+from jsbsim_env import turbulence as turb
 from jsbsim_env.sim import (
     CONTROL_INPUTS,
     EAS_RANGE_MPS,
@@ -233,7 +234,7 @@ class FlightCore:
         self.setup = EpisodeSetup(seed, alt, eas, interval, delay, scales, trim_command)
         self.turbulence = None
         if cfg.turbulence:
-            self.turbulence = dist.dryden_series(cfg.max_steps + 1, alt, tas, self.span_m, cfg.turbulence_sigma_mps,
+            self.turbulence = turb.dryden_series(cfg.max_steps + 1, alt, tas, self.span_m, cfg.turbulence_sigma_mps,
                                                  interval, np.random.default_rng(turbulence_seed))
             # Plain lists: indexing them every step is several times cheaper than numpy rows.
             self._gust_wind = self.turbulence.wind_mps.tolist()
@@ -301,7 +302,7 @@ class FlightCore:
         k = min(self.step_index, len(self._gust_wind) - 1)
         g = self._get_state
         gain = self.turbulence_gain
-        ned = dist.body_to_ned(g[1](), g[2](), g[14](), self._gust_wind[k])
+        ned = turb.body_to_ned(g[1](), g[2](), g[14](), self._gust_wind[k])
         for s, v in zip(self._set_gust, ned):
             s(gain * v * M_TO_FT)
         for s, v in zip(self._set_gust_rate, self._gust_rate[k]):

@@ -1,0 +1,172 @@
+"""Dryden turbulence (MIL-F-8785C) as the flight core applies it.
+
+Scale lengths against altitude, the shaping filters, the rotational gusts from the spatial
+gradients of the linear ones, and the clips. Each series draws only from the generator it
+is given (the episode's), so the same seed gives the same turbulence.
+
+Axes and signs: body axes, x forward, y right, z down. ``u, v, w`` are the wind (the air's velocity)
+along them, which the core rotates into JSBSim's ``atmosphere/gust-{north,east,down}-fps``. JSBSim's
+airspeed is the body velocity minus the wind, so a positive ``w`` lowers the angle of attack and a
+positive ``v`` lowers the sideslip. ``p, q, r`` go to ``atmosphere/gust-{p,q,r}-rad_sec``, which
+the model's rate terms subtract from the body rates.
+
+Altitudes are above the ground, which the packaged initial conditions put at sea level.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import signal
+
+FT_TO_M = 0.3048
+LOW_ALTITUDE_FT = 1000.0  # below: the boundary-layer form; above 2000 ft: isotropic; between: linear
+HIGH_ALTITUDE_FT = 2000.0
+WIND_LIMIT_MPS = 2.0  # SPEC section 3: wind components clipped to +-2 m/s
+RATE_LIMIT_RADPS = math.radians(0.3)  # and turbulence angular rates to +-0.3 deg/s
+
+
+def _low_altitude_ratio(h_ft: float) -> float:
+    """MIL-F-8785C's 0.177 + 0.000823 h of the low-altitude scale lengths."""
+    return 0.177 + 0.000823 * h_ft
+
+
+def dryden_scale_lengths_m(altitude_m: float) -> tuple[float, float, float]:
+    """MIL-F-8785C scale lengths (L_u, L_v, L_w): low-altitude form below 1000 ft, 1750 ft above
+    2000 ft, linear in between."""
+    h_ft = max(altitude_m / FT_TO_M, 10.0)
+    if h_ft <= LOW_ALTITUDE_FT:
+        l_uv = h_ft / _low_altitude_ratio(h_ft) ** 1.2
+        return l_uv * FT_TO_M, l_uv * FT_TO_M, h_ft * FT_TO_M
+    if h_ft >= HIGH_ALTITUDE_FT:
+        return (1750.0 * FT_TO_M,) * 3
+    lo = dryden_scale_lengths_m(LOW_ALTITUDE_FT * FT_TO_M)
+    f = (h_ft - LOW_ALTITUDE_FT) / (HIGH_ALTITUDE_FT - LOW_ALTITUDE_FT)
+    return tuple(a + f * (1750.0 * FT_TO_M - a) for a in lo)
+
+
+# ----------------------------------------------------------------------------- filters
+
+def _bilinear(num, den, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Tustin transform s = (2/dt)(z-1)/(z+1) of a transfer function (coefficients highest power
+    first); the same result as ``scipy.signal.bilinear``, without its polynomial objects (100x faster)."""
+    num, den = np.asarray(num, float), np.asarray(den, float)
+    n = max(len(num), len(den)) - 1
+    c = 2.0 / dt_s
+    minus, plus = [np.ones(1)], [np.ones(1)]
+    for _ in range(n):
+        minus.append(np.convolve(minus[-1], [1.0, -1.0]))
+        plus.append(np.convolve(plus[-1], [1.0, 1.0]))
+
+    def transform(poly: np.ndarray) -> np.ndarray:
+        out = np.zeros(n + 1)
+        for k, coef in enumerate(poly[::-1]):  # coef multiplies s**k
+            out += coef * c**k * np.convolve(minus[k], plus[n - k])
+        return out
+
+    b, a = transform(num), transform(den)
+    return b / a[0], a / a[0]
+
+
+def dryden_filters(altitude_m: float, airspeed_mps: float, span_m: float, sigma_mps: float,
+                   dt_s: float) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Discrete MIL-F-8785C Dryden shaping filters for the u, v, w gusts and the roll gust p, with
+    the intensity ``sigma_mps`` on every axis (MIL-F-8785C's form above 2000 ft).
+
+    Each is driven by its own white noise of two-sided density pi (variance pi/dt per sample; see
+    ``dryden_series``). The pitch and yaw gusts are not driven by noise of their own: they are the
+    gradients of w and v (``gradient_rate_filters``).
+    """
+    v = max(airspeed_mps, 1.0)
+    lu, lv, lw = dryden_scale_lengths_m(altitude_m)
+    su = sv = sw = sigma_mps
+
+    def second_order(sigma: float, length: float):
+        tau = length / v
+        return np.convolve([math.sqrt(3.0) * tau, 1.0], [sigma * math.sqrt(length / (math.pi * v))]), \
+            np.convolve([tau, 1.0], [tau, 1.0])
+
+    p_gain = sw * math.sqrt(0.8 / v) * (math.pi / (4.0 * span_m)) ** (1.0 / 6.0) / (2.0 * lw) ** (1.0 / 3.0)
+    tfs = {
+        "u": ([su * math.sqrt(2.0 * lu / (math.pi * v))], [lu / v, 1.0]),
+        "v": second_order(sv, lv),
+        "w": second_order(sw, lw),
+        "p": ([p_gain], [4.0 * span_m / (math.pi * v), 1.0]),
+    }
+    return {name: _bilinear(num, den, dt_s) for name, (num, den) in tfs.items()}
+
+
+def gradient_rate_filters(airspeed_mps: float, span_m: float, dt_s: float) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Discrete filters from the w series to q_g and from the v series to r_g.
+
+    In a frozen field a point x ahead of the CG (body x forward) meets the air the CG meets x/V
+    later, so along the body d/dx = (1/V) d/dt of the series at the CG. The local angle of attack
+    is alpha - w(x)/V: the tail (x = -l_t) minus the wing differ by l_t/V * dw/dx, which is what a
+    pitch rate q = dw/dx gives. The air therefore acts like a body rate q + dw/dx, and likewise
+    (sideslip beta - v(x)/V at the fin) r - dv/dx. The model subtracts the gust rates, so
+    q_g = -(1/V) dw/dt and r_g = +(1/V) dv/dt, each low-passed over the span as MIL-F-8785C
+    gives (1 / (1 + 4bs/(pi V)) and 1 / (1 + 3bs/(pi V))).
+    """
+    v = max(airspeed_mps, 1.0)
+    return {
+        "q": _bilinear([-1.0 / v, 0.0], [4.0 * span_m / (math.pi * v), 1.0], dt_s),
+        "r": _bilinear([1.0 / v, 0.0], [3.0 * span_m / (math.pi * v), 1.0], dt_s),
+    }
+
+
+def gradient_rate_gusts(w_mps: np.ndarray, v_mps: np.ndarray, airspeed_mps: float, span_m: float,
+                        dt_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """The pitch and yaw gusts (rad/s) of a field whose w and v, as the CG meets them, are the
+    series ``w_mps`` and ``v_mps`` sampled every ``dt_s`` (see ``gradient_rate_filters``).
+
+    The filters start at rest, as the series do; any field can be put through, a Dryden one or a
+    test's sinusoid.
+    """
+    f = gradient_rate_filters(airspeed_mps, span_m, dt_s)
+    return signal.lfilter(*f["q"], w_mps), signal.lfilter(*f["r"], v_mps)
+
+
+# ----------------------------------------------------------------------------- series
+
+
+@dataclass
+class TurbulenceSeries:
+    """Body-axis gusts over one episode at the control interval: winds (m/s) and rates (rad/s)."""
+
+    wind_mps: np.ndarray  # (n, 3): u, v, w
+    rate_radps: np.ndarray  # (n, 3): p, q, r
+
+
+def dryden_series(n_steps: int, altitude_m: float, airspeed_mps: float, span_m: float, sigma_mps: float,
+                  dt_s: float, rng: np.random.Generator, warmup_steps: int = 400) -> TurbulenceSeries:
+    """A clipped Dryden turbulence series of ``n_steps`` samples every ``dt_s``.
+
+    u, v, w and p come from independent white noise through ``dryden_filters``; q and r from the
+    w and v series through ``gradient_rate_gusts``. The filters are run ``warmup_steps`` ahead so
+    that the series starts in their stationary state. MIL-F-8785C writes the spectra one-sided in
+    angular frequency (their integral over 0..inf is sigma^2), which is white noise of two-sided
+    density pi: variance pi/dt per sample.
+    """
+    v = max(airspeed_mps, 1.0)
+    filters = dryden_filters(altitude_m, v, span_m, sigma_mps, dt_s)
+    n = n_steps + warmup_steps
+    noise = rng.standard_normal((4, n)) * math.sqrt(math.pi / dt_s)
+    u, vg, w, p = (signal.lfilter(*filters[k], e) for k, e in zip("uvwp", noise))
+    q, r = gradient_rate_gusts(w, vg, v, span_m, dt_s)
+    wind = np.clip(np.stack([u, vg, w], axis=1)[warmup_steps:], -WIND_LIMIT_MPS, WIND_LIMIT_MPS)
+    rate = np.clip(np.stack([p, q, r], axis=1)[warmup_steps:], -RATE_LIMIT_RADPS, RATE_LIMIT_RADPS)
+    return TurbulenceSeries(wind, rate)
+
+
+def body_to_ned(roll_rad: float, pitch_rad: float, yaw_rad: float, vec) -> tuple[float, float, float]:
+    """Rotate a body-axis vector into north-east-down."""
+    cf, sf = math.cos(roll_rad), math.sin(roll_rad)
+    ct, st = math.cos(pitch_rad), math.sin(pitch_rad)
+    cp, sp = math.cos(yaw_rad), math.sin(yaw_rad)
+    x, y, z = vec
+    north = ct * cp * x + (sf * st * cp - cf * sp) * y + (cf * st * cp + sf * sp) * z
+    east = ct * sp * x + (sf * st * sp + cf * cp) * y + (cf * st * sp - sf * cp) * z
+    down = -st * x + sf * ct * y + cf * ct * z
+    return north, east, down

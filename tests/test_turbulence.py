@@ -1,0 +1,154 @@
+"""Turbulence: the Dryden series and its rotational gusts against a frozen field in JSBSim."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from aircraft.design import aero_data
+from aircraft.design.analysis import _mac_quarter_chord, _trapezoid_area_m2
+from aircraft.design.geometry import AircraftGeometry
+from jsbsim_env import turbulence as turb
+from jsbsim_env.core import CoreConfig, FlightCore
+from jsbsim_env.sim import FT_TO_M, LBF_TO_N, M_TO_FT, Simulation
+
+SPAN_M = 35.0
+PSF_TO_PA = 47.880258888889
+LBFFT_TO_NM = LBF_TO_N * FT_TO_M
+
+
+@pytest.fixture(scope="module")
+def tas_mps():
+    """True airspeed (m/s) at an altitude (m) and EAS (m/s), from JSBSim's atmosphere."""
+    sim = Simulation()
+    return lambda altitude_m, eas_mps: eas_mps * math.sqrt(1.225 / sim.density_kg_m3(altitude_m))
+
+
+# ----------------------------------------------------------------------------- the series
+
+@pytest.mark.parametrize("altitude_m", [500.0, 10000.0, 20000.0])
+def test_series_has_its_intensity_and_stays_within_its_clips(altitude_m, tas_mps):
+    rng = np.random.default_rng(int(altitude_m))
+    series = turb.dryden_series(200000, altitude_m, tas_mps(altitude_m, 10.0), SPAN_M, 0.5, 0.05, rng)
+    assert np.abs(series.wind_mps).max() <= turb.WIND_LIMIT_MPS
+    assert np.abs(series.rate_radps).max() <= turb.RATE_LIMIT_RADPS
+    # 10,000 s is 190-700 correlation times: the sample standard deviation is within a few percent.
+    np.testing.assert_allclose(series.wind_mps.std(axis=0), 0.5, rtol=0.1)
+    assert np.all(np.degrees(series.rate_radps.std(axis=0)) > 0.05)
+
+
+# ----------------------------------------------------------------------------- rotational gusts in JSBSim
+
+def _tail(axis: str) -> tuple[float, float, float, float]:
+    """Area (m^2), efficiency, 3-D lift slope (per rad, on its own area) and arm behind the CG (m)
+    of the horizontal tail (pitch) or the fin (yaw), from the design data."""
+    geometry, stability = AircraftGeometry(), aero_data.load()["stability"]
+    slopes = stability["lift_slopes_per_rad"]
+    if axis == "pitch":
+        surface, area, slope = geometry.horizontal_tail, 2 * _trapezoid_area_m2(geometry.horizontal_tail), \
+            slopes["elevator_3d"]  # the panel is half the tail
+    else:
+        surface, area, slope = geometry.vertical_tail, _trapezoid_area_m2(geometry.vertical_tail), slopes["rudder_3d"]
+    return area, surface.efficiency, slope, float(_mac_quarter_chord(surface)[0]) - stability["cg_x_m"]
+
+
+# Ratio bands of the model's moment over the tail's. Pitch: a w field varying along x is, at every
+# point of the x axis, what a pitch rate is, so the whole Cmq applies; the tail part alone
+# (-2 eta V_H a_t l_t / c, -12.3 with these numbers) is 80-90 % of the vortex-lattice Cmq (-14.5
+# to -15.2): ratio 1.1-1.25, to within 1 % of the MIL-F-8785C low-pass at this wavelength. The band
+# keeps the sign and the tail's share exact and leaves 15 % for revised tables either way.
+# Yaw: the fin's part of Cnr is about 0.028, the vortex-lattice Cnr 0.036-0.037: its wing part
+# (the yawing wing's spanwise change of lift and drag) needs a u varying along the span, which a v
+# field varying along x does not give, so the model overstates the gust's yaw moment by that share
+# (ratio about 1.3). The band allows it and 25 % for revised tables.
+RATIO_BANDS = {"pitch": (0.95, 1.45), "yaw": (0.95, 1.7)}
+
+
+@pytest.mark.parametrize("axis", ["pitch", "yaw"])
+def test_rate_gust_gives_the_tail_moment_of_a_frozen_field(axis):
+    """The trimmed aircraft (1 km, EAS 10 m/s) meets a frozen sinusoidal field of w (pitch) or v
+    (yaw), 3 km long, at its airspeed. JSBSim gets the linear gust and the rate gust that
+    ``gradient_rate_gusts`` makes of it; the moment of the rate gust (with minus without it) is
+    compared with the one from the tail's local angle of attack (sideslip) against the wing's:
+
+        pitch: dM = -qbar S_t eta a_t l_t (alpha_tail - alpha_cg), alpha(x) = alpha - w(x) / V
+        yaw:   dN = +qbar S_v eta a_v l_v (beta_fin - beta_cg),    beta(x) = beta - v(x) / V
+
+    with the tail l behind the CG meeting the field l / V later. The aircraft is held in its
+    trimmed state while the field passes it (JSBSim's initial-condition pass evaluates the model
+    without moving it): a free aircraft would respond to the gust and change the state between
+    the two evaluations. At 3 km the MIL-F-8785C low-pass (time constant 4b/(pi V) = 4.2 s in
+    pitch, 3b/(pi V) in yaw) lags the gradient by 4-5 deg and the finite tail arm (8.6 m) barely
+    differs from the gradient: the correlation is above 0.99 and the amplitude within 1 %.
+    """
+    sim = Simulation()
+    trim = sim.trim(1000.0, 10.0)
+    f = sim.fdm
+    v0, dt_s, amplitude_mps, wavelength_m, run_in_s = trim.airspeed_tas_mps, 0.05, 0.3, 3000.0, 30.0
+    area_m2, efficiency, slope_per_rad, arm_m = _tail(axis)
+    t = np.arange(int((run_in_s + wavelength_m / v0) / dt_s)) * dt_s
+
+    def field(x_m):
+        return amplitude_mps * np.sin(2 * np.pi * x_m / wavelength_m)
+
+    gust, zero = field(v0 * t), np.zeros(t.size)
+    if axis == "pitch":
+        rate = turb.gradient_rate_gusts(gust, zero, v0, SPAN_M, dt_s)[0]
+        rate_prop, moment_prop, sign = "atmosphere/gust-q-rad_sec", "moments/m-aero-lbsft", -1.0
+    else:
+        rate = turb.gradient_rate_gusts(zero, gust, v0, SPAN_M, dt_s)[1]
+        rate_prop, moment_prop, sign = "atmosphere/gust-r-rad_sec", "moments/n-aero-lbsft", 1.0
+    model, tail = [], []
+    for k in range(int(run_in_s / dt_s), t.size, 10):  # after the low-pass has settled
+        body = (0.0, 0.0, gust[k]) if axis == "pitch" else (0.0, gust[k], 0.0)
+        ned = turb.body_to_ned(f["attitude/phi-rad"], f["attitude/theta-rad"], f["attitude/psi-rad"], body)
+        for name, value in zip(("north", "east", "down"), ned):
+            f[f"atmosphere/gust-{name}-fps"] = value * M_TO_FT
+        f[rate_prop] = rate[k]
+        f.run_ic()
+        with_rate = f[moment_prop]
+        f[rate_prop] = 0.0
+        f.run_ic()
+        model.append((with_rate - f[moment_prop]) * LBFFT_TO_NM)
+        v, qbar = f["velocities/vt-fps"] * FT_TO_M, f["aero/qbar-psf"] * PSF_TO_PA
+        tail_minus_cg = -(field(v0 * t[k] - arm_m) - field(v0 * t[k])) / v  # of alpha (pitch), beta (yaw)
+        tail.append(sign * qbar * area_m2 * efficiency * slope_per_rad * arm_m * tail_minus_cg)
+    model, tail = np.array(model), np.array(tail)
+    ratio = float(model @ tail / (tail @ tail))
+    assert np.corrcoef(model, tail)[0, 1] > 0.99
+    lo, hi = RATIO_BANDS[axis]
+    assert lo < ratio < hi, f"{axis}: model / tail moment {ratio:.3f}"
+
+
+def test_rotational_gust_changes_the_roll_moment():
+    core = FlightCore(CoreConfig.ideal())
+    core.reset(seed=0, altitude_m=5000.0, airspeed_eas_mps=10.0)
+    sim = core.sim
+    sim.fdm.run_ic()
+    calm = sim["moments/l-aero-lbsft"]
+    sim["atmosphere/gust-p-rad_sec"] = 0.005
+    sim.fdm.run_ic()
+    # A gust rate is the body rate with the opposite sign: it produces roll damping moment in reverse.
+    assert sim["moments/l-aero-lbsft"] != pytest.approx(calm)
+
+
+# ----------------------------------------------------------------------------- in the flight core
+
+def test_turbulence_reaches_jsbsim_and_differs_between_seeds():
+    core = FlightCore(CoreConfig(sensor_noise=False))
+    gusts = {}
+    for seed in (1, 2):
+        core.reset(seed=seed, altitude_m=15000.0)
+        history = []
+        for _ in range(20):
+            core.step(core.setup.trim_command)
+            history.append([core.sim[f"atmosphere/gust-{a}-fps"] for a in ("north", "east", "down")]
+                           + [core.sim[f"atmosphere/gust-{a}-rad_sec"] for a in "pqr"])
+        h = np.array(history)
+        assert np.all(np.abs(h[:, :3]) * FT_TO_M <= turb.WIND_LIMIT_MPS * math.sqrt(3) + 1e-9)
+        assert np.all(np.abs(h[:, 3:]) <= turb.RATE_LIMIT_RADPS + 1e-12)
+        assert np.any(h != 0.0)
+        gusts[seed] = h
+    assert not np.allclose(gusts[1], gusts[2])
