@@ -26,6 +26,7 @@ LOW_ALTITUDE_FT = 1000.0  # below: the boundary-layer form; above 2000 ft: isotr
 HIGH_ALTITUDE_FT = 2000.0
 WIND_LIMIT_MPS = 2.0  # SPEC section 3: wind components clipped to +-2 m/s
 RATE_LIMIT_RADPS = math.radians(0.3)  # and turbulence angular rates to +-0.3 deg/s
+WARMUP_TIME_CONSTANTS = 5.0  # the filters start at rest; 5 of their slowest time constants settle them
 
 
 def _low_altitude_ratio(h_ft: float) -> float:
@@ -88,7 +89,8 @@ def dryden_filters(altitude_m: float, airspeed_mps: float, span_m: float, sigma_
         return np.convolve([math.sqrt(3.0) * tau, 1.0], [sigma * math.sqrt(length / (math.pi * v))]), \
             np.convolve([tau, 1.0], [tau, 1.0])
 
-    p_gain = sw * math.sqrt(0.8 / v) * (math.pi / (4.0 * span_m)) ** (1.0 / 6.0) / (2.0 * lw) ** (1.0 / 3.0)
+    # p_g: MIL-F-8785C's spectrum sigma_w^2 / (V L_w) 0.8 (pi L_w / 4b)^(1/3) / (1 + (4b w / pi V)^2).
+    p_gain = sw * math.sqrt(0.8 / v) * (math.pi / (4.0 * span_m)) ** (1.0 / 6.0) / lw ** (1.0 / 3.0)
     tfs = {
         "u": ([su * math.sqrt(2.0 * lu / (math.pi * v))], [lu / v, 1.0]),
         "v": second_order(sv, lv),
@@ -140,17 +142,19 @@ class TurbulenceSeries:
 
 
 def dryden_series(n_steps: int, altitude_m: float, airspeed_mps: float, span_m: float, sigma_mps: float,
-                  dt_s: float, rng: np.random.Generator, warmup_steps: int = 400) -> TurbulenceSeries:
+                  dt_s: float, rng: np.random.Generator) -> TurbulenceSeries:
     """A clipped Dryden turbulence series of ``n_steps`` samples every ``dt_s``.
 
     u, v, w and p come from independent white noise through ``dryden_filters``; q and r from the
-    w and v series through ``gradient_rate_gusts``. The filters are run ``warmup_steps`` ahead so
-    that the series starts in their stationary state. MIL-F-8785C writes the spectra one-sided in
-    angular frequency (their integral over 0..inf is sigma^2), which is white noise of two-sided
-    density pi: variance pi/dt per sample.
+    w and v series through ``gradient_rate_gusts``. The filters run ahead by five of their slowest
+    time constants, so that the series starts in their stationary state. MIL-F-8785C writes the
+    spectra one-sided in angular frequency (their integral over 0..inf is sigma^2), which is white
+    noise of two-sided density pi: variance pi/dt per sample.
     """
     v = max(airspeed_mps, 1.0)
     filters = dryden_filters(altitude_m, v, span_m, sigma_mps, dt_s)
+    slowest_s = max(*dryden_scale_lengths_m(altitude_m), 4.0 * span_m / math.pi) / v
+    warmup_steps = math.ceil(WARMUP_TIME_CONSTANTS * slowest_s / dt_s)
     n = n_steps + warmup_steps
     noise = rng.standard_normal((4, n)) * math.sqrt(math.pi / dt_s)
     u, vg, w, p = (signal.lfilter(*filters[k], e) for k, e in zip("uvwp", noise))

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from scipy import signal
 
 from aircraft.design import aero_data
 from aircraft.design.analysis import _mac_quarter_chord, _trapezoid_area_m2
@@ -37,6 +38,29 @@ def test_series_has_its_intensity_and_stays_within_its_clips(altitude_m, tas_mps
     # 10,000 s is 190-700 correlation times: the sample standard deviation is within a few percent.
     np.testing.assert_allclose(series.wind_mps.std(axis=0), 0.5, rtol=0.1)
     assert np.all(np.degrees(series.rate_radps.std(axis=0)) > 0.05)
+
+
+def test_series_starts_in_the_stationary_state(tas_mps):
+    """The first sample of an episode has the full intensity, also where the correlation time L/V
+    is longest (1 km, EAS 8 m/s: 63 s)."""
+    v = tas_mps(1000.0, 8.0)
+    first = np.array([turb.dryden_series(1, 1000.0, v, SPAN_M, 0.5, 0.04, np.random.default_rng(s)).wind_mps[0]
+                      for s in range(300)])
+    # 900 independent Gaussian samples: their standard deviation is within 2.4 % (one sigma).
+    np.testing.assert_allclose(first.std(), 0.5, rtol=0.07)
+
+
+def test_roll_gust_has_the_milspec_variance(tas_mps):
+    """MIL-F-8785C: Phi_p(w) = sigma_w^2 / (V L_w) * 0.8 (pi L_w / 4b)^(1/3) / (1 + (4b w / pi V)^2);
+    integrated over 0..inf (the integral of 1 / (1 + (tau w)^2) is pi / (2 tau), tau = 4b / (pi V)):
+    sigma_p^2 = 0.1 pi^2 sigma_w^2 / (b L_w) * (pi L_w / 4b)^(1/3)."""
+    altitude_m, v, dt_s = 10000.0, tas_mps(10000.0, 10.0), 0.05
+    lw = turb.dryden_scale_lengths_m(altitude_m)[2]
+    expected = math.sqrt(0.1 * math.pi**2 * 0.5**2 / (SPAN_M * lw) * (math.pi * lw / (4 * SPAN_M)) ** (1 / 3))
+    noise = np.random.default_rng(3).standard_normal(200000) * math.sqrt(math.pi / dt_s)
+    p = signal.lfilter(*turb.dryden_filters(altitude_m, v, SPAN_M, 0.5, dt_s)["p"], noise)
+    # 10,000 s over a time constant of 2.6 s: the sample value is within 1.1 % (one sigma).
+    assert p.std() == pytest.approx(expected, rel=0.05)
 
 
 # ----------------------------------------------------------------------------- rotational gusts in JSBSim
