@@ -78,6 +78,9 @@ class CoreConfig:
     noise_reversion_per_s: float = 0.0  # "mean-reversion rate 0 (as printed)"
     parameters: str = dist.RANDOMISED  # Table 4 draw, or a fixed set: "nominal", "positive", "negative"
     turbulence: bool = True
+    # "paper": turbulence_sigma_mps on each axis at every altitude (SPEC); or a MIL-F-8785C
+    # severity, "light", "moderate" or "severe", whose intensity falls with altitude.
+    turbulence_intensity: str = turb.PAPER
     turbulence_sigma_mps: float = 0.5
     backlash_deg: float = 0.0
     altitude_range_m: tuple[float, float] = (500.0, 20000.0)
@@ -88,6 +91,11 @@ class CoreConfig:
     perturb_eas_mps: float = 1.0
     max_steps: int = 500  # turbulence is generated for this many control intervals
     envelope: Envelope = field(default_factory=Envelope)
+
+    def __post_init__(self):
+        if self.turbulence_intensity != turb.PAPER and self.turbulence_intensity not in turb.SEVERITIES:
+            raise ValueError(f"turbulence_intensity {self.turbulence_intensity!r}: use {turb.PAPER!r} or one of "
+                             f"{sorted(turb.SEVERITIES)}")
 
     @classmethod
     def ideal(cls, **overrides) -> CoreConfig:
@@ -234,8 +242,9 @@ class FlightCore:
         self.setup = EpisodeSetup(seed, alt, eas, interval, delay, scales, trim_command)
         self.turbulence = None
         if cfg.turbulence:
-            self.turbulence = turb.dryden_series(cfg.max_steps + 1, alt, tas, self.span_m, cfg.turbulence_sigma_mps,
-                                                 interval, np.random.default_rng(turbulence_seed))
+            self.turbulence = turb.dryden_series(cfg.max_steps + 1, alt, tas, self.span_m, interval,
+                                                 np.random.default_rng(turbulence_seed), cfg.turbulence_intensity,
+                                                 cfg.turbulence_sigma_mps)
             # Plain lists: indexing them every step is several times cheaper than numpy rows.
             self._gust_wind = self.turbulence.wind_mps.tolist()
             self._gust_rate = self.turbulence.rate_radps.tolist()

@@ -1,7 +1,7 @@
 """Dryden turbulence (MIL-F-8785C) as the flight core applies it.
 
-Scale lengths against altitude, the shaping filters, the rotational gusts from the spatial
-gradients of the linear ones, and the clips. Each series draws only from the generator it
+Intensities and scale lengths against altitude, the shaping filters, the rotational gusts from the
+spatial gradients of the linear ones, and the clip. Each series draws only from the generator it
 is given (the episode's), so the same seed gives the same turbulence.
 
 Axes and signs: body axes, x forward, y right, z down. ``u, v, w`` are the wind (the air's velocity)
@@ -22,15 +22,33 @@ import numpy as np
 from scipy import signal
 
 FT_TO_M = 0.3048
+KNOT_TO_MPS = 1852.0 / 3600.0
+
+# ----------------------------------------------------------------------------- intensity
+
+PAPER = "paper"  # sigma_mps on every axis at every altitude (SPEC section 3)
+# MIL-F-8785C section 3.7.2.3: the probability-of-exceedance curve of Fig. 7 each severity uses
+# above 2000 ft, and its wind at 20 ft below 1000 ft.
+SEVERITIES: dict[str, tuple[float, float]] = {  # name: (probability of exceedance, W20 in knots)
+    "light": (1e-2, 15.0),
+    "moderate": (1e-3, 30.0),
+    "severe": (1e-5, 45.0),
+}
+# MIL-F-8785C Fig. 7, medium/high-altitude intensity sigma_u = sigma_v = sigma_w (ft/s) against
+# altitude (ft), read at these altitudes for the three curves above.
+POE_ALTITUDES_FT = (500.0, 1750.0, 3750.0, 7500.0, 15000.0, 25000.0, 35000.0, 45000.0, 55000.0, 65000.0,
+                    75000.0, 80000.0)
+POE_SIGMA_FPS: dict[float, tuple[float, ...]] = {
+    1e-2: (6.6, 6.9, 7.4, 6.7, 4.6, 2.7, 0.4, 0.0, 0.0, 0.0, 0.0, 0.0),
+    1e-3: (8.6, 9.6, 10.6, 10.1, 8.0, 6.6, 5.0, 4.2, 2.7, 0.0, 0.0, 0.0),
+    1e-5: (15.6, 17.6, 23.0, 23.6, 22.1, 20.0, 16.0, 15.1, 12.1, 7.9, 6.2, 5.1),
+}
 LOW_ALTITUDE_FT = 1000.0  # below: the boundary-layer form; above 2000 ft: isotropic; between: linear
 HIGH_ALTITUDE_FT = 2000.0
-WIND_LIMIT_MPS = 2.0  # SPEC section 3: wind components clipped to +-2 m/s
-RATE_LIMIT_RADPS = math.radians(0.3)  # and turbulence angular rates to +-0.3 deg/s
-WARMUP_TIME_CONSTANTS = 5.0  # the filters start at rest; 5 of their slowest time constants settle them
 
 
 def _low_altitude_ratio(h_ft: float) -> float:
-    """MIL-F-8785C's 0.177 + 0.000823 h of the low-altitude scale lengths."""
+    """MIL-F-8785C's 0.177 + 0.000823 h of the low-altitude scale lengths and intensities."""
     return 0.177 + 0.000823 * h_ft
 
 
@@ -46,6 +64,35 @@ def dryden_scale_lengths_m(altitude_m: float) -> tuple[float, float, float]:
     lo = dryden_scale_lengths_m(LOW_ALTITUDE_FT * FT_TO_M)
     f = (h_ft - LOW_ALTITUDE_FT) / (HIGH_ALTITUDE_FT - LOW_ALTITUDE_FT)
     return tuple(a + f * (1750.0 * FT_TO_M - a) for a in lo)
+
+
+def milspec_intensities_mps(altitude_m: float, severity: str) -> tuple[float, float, float]:
+    """MIL-F-8785C intensities (sigma_u, sigma_v, sigma_w) of a severity ("light", "moderate",
+    "severe"): sigma_w = W20 / 10 and sigma_u = sigma_v = sigma_w / (0.177 + 0.000823 h)^0.4 below
+    1000 ft, the probability-of-exceedance curve of Fig. 7 above 2000 ft, linear in between."""
+    try:
+        poe, w20_kt = SEVERITIES[severity]
+    except KeyError:
+        raise ValueError(f"unknown turbulence severity {severity!r}: use one of {sorted(SEVERITIES)}") from None
+    h_ft = max(altitude_m / FT_TO_M, 10.0)
+    sigma_w = 0.1 * w20_kt * KNOT_TO_MPS
+    if h_ft <= LOW_ALTITUDE_FT:
+        sigma_uv = sigma_w / _low_altitude_ratio(h_ft) ** 0.4
+        return sigma_uv, sigma_uv, sigma_w
+    high = float(np.interp(max(h_ft, HIGH_ALTITUDE_FT), POE_ALTITUDES_FT, POE_SIGMA_FPS[poe])) * FT_TO_M
+    if h_ft >= HIGH_ALTITUDE_FT:
+        return (high,) * 3
+    f = (h_ft - LOW_ALTITUDE_FT) / (HIGH_ALTITUDE_FT - LOW_ALTITUDE_FT)
+    low = milspec_intensities_mps(LOW_ALTITUDE_FT * FT_TO_M, severity)
+    return tuple(a + f * (high - a) for a in low)
+
+
+def intensities_mps(altitude_m: float, intensity: str = PAPER, sigma_mps: float = 0.5) -> tuple[float, float, float]:
+    """(sigma_u, sigma_v, sigma_w): ``sigma_mps`` on each axis for ``"paper"``, else a MIL-F-8785C
+    severity (``milspec_intensities_mps``)."""
+    if intensity == PAPER:
+        return (float(sigma_mps),) * 3
+    return milspec_intensities_mps(altitude_m, intensity)
 
 
 # ----------------------------------------------------------------------------- filters
@@ -71,10 +118,9 @@ def _bilinear(num, den, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
     return b / a[0], a / a[0]
 
 
-def dryden_filters(altitude_m: float, airspeed_mps: float, span_m: float, sigma_mps: float,
+def dryden_filters(altitude_m: float, airspeed_mps: float, span_m: float, sigmas_mps: tuple[float, float, float],
                    dt_s: float) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """Discrete MIL-F-8785C Dryden shaping filters for the u, v, w gusts and the roll gust p, with
-    the intensity ``sigma_mps`` on every axis (MIL-F-8785C's form above 2000 ft).
+    """Discrete MIL-F-8785C Dryden shaping filters for the u, v, w gusts and the roll gust p.
 
     Each is driven by its own white noise of two-sided density pi (variance pi/dt per sample; see
     ``dryden_series``). The pitch and yaw gusts are not driven by noise of their own: they are the
@@ -82,7 +128,7 @@ def dryden_filters(altitude_m: float, airspeed_mps: float, span_m: float, sigma_
     """
     v = max(airspeed_mps, 1.0)
     lu, lv, lw = dryden_scale_lengths_m(altitude_m)
-    su = sv = sw = sigma_mps
+    su, sv, sw = sigmas_mps
 
     def second_order(sigma: float, length: float):
         tau = length / v
@@ -132,6 +178,10 @@ def gradient_rate_gusts(w_mps: np.ndarray, v_mps: np.ndarray, airspeed_mps: floa
 
 # ----------------------------------------------------------------------------- series
 
+WIND_LIMIT_MPS = 2.0  # SPEC section 3: wind components clipped to +-2 m/s
+RATE_LIMIT_RADPS = math.radians(0.3)  # and turbulence angular rates to +-0.3 deg/s
+WARMUP_TIME_CONSTANTS = 5.0  # the filters start at rest; 5 of their slowest time constants settle them
+
 
 @dataclass
 class TurbulenceSeries:
@@ -141,18 +191,19 @@ class TurbulenceSeries:
     rate_radps: np.ndarray  # (n, 3): p, q, r
 
 
-def dryden_series(n_steps: int, altitude_m: float, airspeed_mps: float, span_m: float, sigma_mps: float,
-                  dt_s: float, rng: np.random.Generator) -> TurbulenceSeries:
+def dryden_series(n_steps: int, altitude_m: float, airspeed_mps: float, span_m: float, dt_s: float,
+                  rng: np.random.Generator, intensity: str = PAPER, sigma_mps: float = 0.5) -> TurbulenceSeries:
     """A clipped Dryden turbulence series of ``n_steps`` samples every ``dt_s``.
 
     u, v, w and p come from independent white noise through ``dryden_filters``; q and r from the
     w and v series through ``gradient_rate_gusts``. The filters run ahead by five of their slowest
     time constants, so that the series starts in their stationary state. MIL-F-8785C writes the
     spectra one-sided in angular frequency (their integral over 0..inf is sigma^2), which is white
-    noise of two-sided density pi: variance pi/dt per sample.
+    noise of two-sided density pi: variance pi/dt per sample. ``intensity``, ``sigma_mps``: see
+    ``intensities_mps``.
     """
     v = max(airspeed_mps, 1.0)
-    filters = dryden_filters(altitude_m, v, span_m, sigma_mps, dt_s)
+    filters = dryden_filters(altitude_m, v, span_m, intensities_mps(altitude_m, intensity, sigma_mps), dt_s)
     slowest_s = max(*dryden_scale_lengths_m(altitude_m), 4.0 * span_m / math.pi) / v
     warmup_steps = math.ceil(WARMUP_TIME_CONSTANTS * slowest_s / dt_s)
     n = n_steps + warmup_steps

@@ -1,4 +1,5 @@
-"""Turbulence: the Dryden series and its rotational gusts against a frozen field in JSBSim."""
+"""Turbulence: the Dryden series, its rotational gusts against a frozen field in JSBSim and the
+MIL-F-8785C intensities."""
 
 from __future__ import annotations
 
@@ -32,7 +33,7 @@ def tas_mps():
 @pytest.mark.parametrize("altitude_m", [500.0, 10000.0, 20000.0])
 def test_series_has_its_intensity_and_stays_within_its_clips(altitude_m, tas_mps):
     rng = np.random.default_rng(int(altitude_m))
-    series = turb.dryden_series(200000, altitude_m, tas_mps(altitude_m, 10.0), SPAN_M, 0.5, 0.05, rng)
+    series = turb.dryden_series(200000, altitude_m, tas_mps(altitude_m, 10.0), SPAN_M, 0.05, rng)
     assert np.abs(series.wind_mps).max() <= turb.WIND_LIMIT_MPS
     assert np.abs(series.rate_radps).max() <= turb.RATE_LIMIT_RADPS
     # 10,000 s is 190-700 correlation times: the sample standard deviation is within a few percent.
@@ -44,7 +45,7 @@ def test_series_starts_in_the_stationary_state(tas_mps):
     """The first sample of an episode has the full intensity, also where the correlation time L/V
     is longest (1 km, EAS 8 m/s: 63 s)."""
     v = tas_mps(1000.0, 8.0)
-    first = np.array([turb.dryden_series(1, 1000.0, v, SPAN_M, 0.5, 0.04, np.random.default_rng(s)).wind_mps[0]
+    first = np.array([turb.dryden_series(1, 1000.0, v, SPAN_M, 0.04, np.random.default_rng(s)).wind_mps[0]
                       for s in range(300)])
     # 900 independent Gaussian samples: their standard deviation is within 2.4 % (one sigma).
     np.testing.assert_allclose(first.std(), 0.5, rtol=0.07)
@@ -58,7 +59,7 @@ def test_roll_gust_has_the_milspec_variance(tas_mps):
     lw = turb.dryden_scale_lengths_m(altitude_m)[2]
     expected = math.sqrt(0.1 * math.pi**2 * 0.5**2 / (SPAN_M * lw) * (math.pi * lw / (4 * SPAN_M)) ** (1 / 3))
     noise = np.random.default_rng(3).standard_normal(200000) * math.sqrt(math.pi / dt_s)
-    p = signal.lfilter(*turb.dryden_filters(altitude_m, v, SPAN_M, 0.5, dt_s)["p"], noise)
+    p = signal.lfilter(*turb.dryden_filters(altitude_m, v, SPAN_M, (0.5,) * 3, dt_s)["p"], noise)
     # 10,000 s over a time constant of 2.6 s: the sample value is within 1.1 % (one sigma).
     assert p.std() == pytest.approx(expected, rel=0.05)
 
@@ -176,3 +177,34 @@ def test_turbulence_reaches_jsbsim_and_differs_between_seeds():
         assert np.any(h != 0.0)
         gusts[seed] = h
     assert not np.allclose(gusts[1], gusts[2])
+
+
+# ----------------------------------------------------------------------------- intensity against altitude
+
+KT_TO_FPS = 1852.0 / 3600.0 / FT_TO_M
+
+
+@pytest.mark.parametrize("severity, altitude_ft, sigma_uvw_fps", [
+    # MIL-F-8785C Fig. 7 (probability of exceedance 1e-2, 1e-3, 1e-5), isotropic above 2000 ft.
+    ("light", 7500.0, (6.7,) * 3),
+    ("light", 45000.0, (0.0,) * 3),
+    ("moderate", 15000.0, (8.0,) * 3),
+    ("severe", 25000.0, (20.0,) * 3),
+    # Below 1000 ft: sigma_w = W20 / 10 (W20 15, 30, 45 kt) and sigma_u = sigma_v = sigma_w / (0.177 + 0.000823 h)^0.4.
+    ("light", 500.0, (1.5 * KT_TO_FPS / 0.5885**0.4,) * 2 + (1.5 * KT_TO_FPS,)),
+    ("severe", 100.0, (4.5 * KT_TO_FPS / 0.2593**0.4,) * 2 + (4.5 * KT_TO_FPS,)),
+    # 1500 ft: halfway between 3 kt at 1000 ft and Fig. 7's 9.725 ft/s at 2000 ft.
+    ("moderate", 1500.0, ((3.0 * KT_TO_FPS + 9.725) / 2,) * 3),
+])
+def test_milspec_intensity_matches_the_published_values(severity, altitude_ft, sigma_uvw_fps):
+    sigmas = turb.intensities_mps(altitude_ft * FT_TO_M, severity)
+    np.testing.assert_allclose(np.array(sigmas) / FT_TO_M, sigma_uvw_fps, rtol=1e-3, atol=1e-9)
+
+
+def test_flight_core_takes_the_intensity_from_its_config():
+    assert turb.intensities_mps(8000.0, turb.PAPER, 0.7) == (0.7, 0.7, 0.7)
+    core = FlightCore(CoreConfig(turbulence_intensity="light", sensor_noise=False))
+    core.reset(seed=0, altitude_m=15000.0)  # 49,000 ft: light turbulence ends at 35,000-45,000 ft
+    assert not np.any(core.turbulence.wind_mps)
+    with pytest.raises(ValueError, match="turbulence_intensity"):
+        CoreConfig(turbulence_intensity="strong")
