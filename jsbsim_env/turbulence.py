@@ -1,7 +1,7 @@
 """Dryden turbulence (MIL-F-8785C) as the flight core applies it.
 
 Intensities and scale lengths against altitude, the shaping filters, the rotational gusts from the
-spatial gradients of the linear ones, and the clip. Each series draws only from the generator it
+spatial gradients of the linear ones, and the clips. Each series draws only from the generator it
 is given (the episode's), so the same seed gives the same turbulence.
 
 Axes and signs: body axes, x forward, y right, z down. ``u, v, w`` are the wind (the air's velocity)
@@ -176,23 +176,73 @@ def gradient_rate_gusts(w_mps: np.ndarray, v_mps: np.ndarray, airspeed_mps: floa
     return signal.lfilter(*f["q"], w_mps), signal.lfilter(*f["r"], v_mps)
 
 
-# ----------------------------------------------------------------------------- series
+def stationary_std(b: np.ndarray, a: np.ndarray, input_variance: float) -> float:
+    """Standard deviation of a discrete filter's output in its stationary state, for white noise
+    of ``input_variance`` at its input: exact for the discrete filter, from the Lyapunov equation
+    P = A P A' + B B' of its controllable canonical form (a few microseconds at these orders)."""
+    b, a = np.asarray(b, float) / a[0], np.asarray(a, float) / a[0]
+    n = len(a) - 1
+    b = np.concatenate([np.zeros(n + 1 - len(b)), b])
+    if n == 0:
+        return abs(b[0]) * math.sqrt(input_variance)
+    a_mat = np.zeros((n, n))
+    a_mat[0] = -a[1:]
+    a_mat[1:, :-1] = np.eye(n - 1)
+    c = b[1:] - b[0] * a[1:]
+    q = np.zeros((n, n))
+    q[0, 0] = 1.0
+    state = np.linalg.solve(np.eye(n * n) - np.kron(a_mat, a_mat), q.ravel()).reshape(n, n)
+    return math.sqrt(input_variance * (c @ state @ c + b[0] ** 2))
 
-WIND_LIMIT_MPS = 2.0  # SPEC section 3: wind components clipped to +-2 m/s
-RATE_LIMIT_RADPS = math.radians(0.3)  # and turbulence angular rates to +-0.3 deg/s
+
+# ----------------------------------------------------------------------------- series and clips
+
+CLIPS = ("4sigma", "paper")
+PAPER_WIND_CLIP_MPS = 2.0  # SPEC section 3: wind components clipped to +-2 m/s
+PAPER_RATE_CLIP_RADPS = math.radians(0.3)  # and turbulence angular rates to +-0.3 deg/s
+# The paper's wind clip is 4 sigma at its 0.5 m/s (exceeded 0.006 % of the time); "4sigma" clips
+# every channel at 4 times its own stationary standard deviation, as rarely.
+CLIP_SIGMAS = 4.0
 WARMUP_TIME_CONSTANTS = 5.0  # the filters start at rest; 5 of their slowest time constants settle them
 
 
 @dataclass
 class TurbulenceSeries:
-    """Body-axis gusts over one episode at the control interval: winds (m/s) and rates (rad/s)."""
+    """Body-axis gusts over one episode at the control interval: winds (m/s) and rates (rad/s),
+    and the clip each channel had."""
 
     wind_mps: np.ndarray  # (n, 3): u, v, w
     rate_radps: np.ndarray  # (n, 3): p, q, r
+    wind_clip_mps: np.ndarray  # (3,)
+    rate_clip_radps: np.ndarray  # (3,)
+
+
+def clip_limits(altitude_m: float, airspeed_mps: float, span_m: float, dt_s: float, intensity: str = PAPER,
+                sigma_mps: float = 0.5, clip: str = "4sigma") -> tuple[np.ndarray, np.ndarray]:
+    """Clip of each wind (m/s) and rate (rad/s) channel: the paper's +-2 m/s and +-0.3 deg/s
+    (``clip="paper"``), or 4 times each channel's stationary standard deviation (``"4sigma"``;
+    +-2 m/s on the winds at the paper's 0.5 m/s)."""
+    sigmas = intensities_mps(altitude_m, intensity, sigma_mps)
+    return _clip_limits(clip, sigmas, dryden_filters(altitude_m, airspeed_mps, span_m, sigmas, dt_s),
+                        gradient_rate_filters(airspeed_mps, span_m, dt_s), dt_s)
+
+
+def _clip_limits(clip: str, sigmas_mps, linear: dict, gradient: dict, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
+    if clip == "paper":
+        return np.full(3, PAPER_WIND_CLIP_MPS), np.full(3, PAPER_RATE_CLIP_RADPS)
+    if clip != "4sigma":
+        raise ValueError(f"unknown turbulence clip {clip!r}: use one of {CLIPS}")
+    # q and r as the cascade of their gradient filter behind the w and v shaping filters.
+    rates = {"p": linear["p"]}
+    for rate, source in (("q", "w"), ("r", "v")):
+        rates[rate] = tuple(np.convolve(g, f) for g, f in zip(gradient[rate], linear[source]))
+    rate_std = [stationary_std(*rates[k], math.pi / dt_s) for k in "pqr"]
+    return CLIP_SIGMAS * np.array(sigmas_mps), CLIP_SIGMAS * np.array(rate_std)
 
 
 def dryden_series(n_steps: int, altitude_m: float, airspeed_mps: float, span_m: float, dt_s: float,
-                  rng: np.random.Generator, intensity: str = PAPER, sigma_mps: float = 0.5) -> TurbulenceSeries:
+                  rng: np.random.Generator, intensity: str = PAPER, sigma_mps: float = 0.5,
+                  clip: str = "4sigma") -> TurbulenceSeries:
     """A clipped Dryden turbulence series of ``n_steps`` samples every ``dt_s``.
 
     u, v, w and p come from independent white noise through ``dryden_filters``; q and r from the
@@ -200,19 +250,21 @@ def dryden_series(n_steps: int, altitude_m: float, airspeed_mps: float, span_m: 
     time constants, so that the series starts in their stationary state. MIL-F-8785C writes the
     spectra one-sided in angular frequency (their integral over 0..inf is sigma^2), which is white
     noise of two-sided density pi: variance pi/dt per sample. ``intensity``, ``sigma_mps``: see
-    ``intensities_mps``.
+    ``intensities_mps``; ``clip``: see ``clip_limits``.
     """
     v = max(airspeed_mps, 1.0)
-    filters = dryden_filters(altitude_m, v, span_m, intensities_mps(altitude_m, intensity, sigma_mps), dt_s)
+    sigmas = intensities_mps(altitude_m, intensity, sigma_mps)
+    filters = dryden_filters(altitude_m, v, span_m, sigmas, dt_s)
     slowest_s = max(*dryden_scale_lengths_m(altitude_m), 4.0 * span_m / math.pi) / v
-    warmup_steps = math.ceil(WARMUP_TIME_CONSTANTS * slowest_s / dt_s)
-    n = n_steps + warmup_steps
+    warmup = math.ceil(WARMUP_TIME_CONSTANTS * slowest_s / dt_s)
+    n = n_steps + warmup
     noise = rng.standard_normal((4, n)) * math.sqrt(math.pi / dt_s)
     u, vg, w, p = (signal.lfilter(*filters[k], e) for k, e in zip("uvwp", noise))
     q, r = gradient_rate_gusts(w, vg, v, span_m, dt_s)
-    wind = np.clip(np.stack([u, vg, w], axis=1)[warmup_steps:], -WIND_LIMIT_MPS, WIND_LIMIT_MPS)
-    rate = np.clip(np.stack([p, q, r], axis=1)[warmup_steps:], -RATE_LIMIT_RADPS, RATE_LIMIT_RADPS)
-    return TurbulenceSeries(wind, rate)
+    wind_clip, rate_clip = _clip_limits(clip, sigmas, filters, gradient_rate_filters(v, span_m, dt_s), dt_s)
+    wind = np.clip(np.stack([u, vg, w], axis=1)[warmup:], -wind_clip, wind_clip)
+    rate = np.clip(np.stack([p, q, r], axis=1)[warmup:], -rate_clip, rate_clip)
+    return TurbulenceSeries(wind, rate, wind_clip, rate_clip)
 
 
 def body_to_ned(roll_rad: float, pitch_rad: float, yaw_rad: float, vec) -> tuple[float, float, float]:

@@ -1,5 +1,5 @@
-"""Turbulence: the Dryden series, its rotational gusts against a frozen field in JSBSim and the
-MIL-F-8785C intensities."""
+"""Turbulence: the Dryden series, its rotational gusts against a frozen field in JSBSim, the
+MIL-F-8785C intensities and the clips."""
 
 from __future__ import annotations
 
@@ -34,8 +34,9 @@ def tas_mps():
 def test_series_has_its_intensity_and_stays_within_its_clips(altitude_m, tas_mps):
     rng = np.random.default_rng(int(altitude_m))
     series = turb.dryden_series(200000, altitude_m, tas_mps(altitude_m, 10.0), SPAN_M, 0.05, rng)
-    assert np.abs(series.wind_mps).max() <= turb.WIND_LIMIT_MPS
-    assert np.abs(series.rate_radps).max() <= turb.RATE_LIMIT_RADPS
+    assert np.all(np.abs(series.wind_mps) <= series.wind_clip_mps)
+    assert np.all(np.abs(series.rate_radps) <= series.rate_clip_radps)
+    np.testing.assert_allclose(series.wind_clip_mps, turb.PAPER_WIND_CLIP_MPS)  # 4 sigma at 0.5 m/s
     # 10,000 s is 190-700 correlation times: the sample standard deviation is within a few percent.
     np.testing.assert_allclose(series.wind_mps.std(axis=0), 0.5, rtol=0.1)
     assert np.all(np.degrees(series.rate_radps.std(axis=0)) > 0.05)
@@ -172,8 +173,8 @@ def test_turbulence_reaches_jsbsim_and_differs_between_seeds():
             history.append([core.sim[f"atmosphere/gust-{a}-fps"] for a in ("north", "east", "down")]
                            + [core.sim[f"atmosphere/gust-{a}-rad_sec"] for a in "pqr"])
         h = np.array(history)
-        assert np.all(np.abs(h[:, :3]) * FT_TO_M <= turb.WIND_LIMIT_MPS * math.sqrt(3) + 1e-9)
-        assert np.all(np.abs(h[:, 3:]) <= turb.RATE_LIMIT_RADPS + 1e-12)
+        assert np.all(np.linalg.norm(h[:, :3], axis=1) * FT_TO_M <= np.linalg.norm(core.turbulence.wind_clip_mps))
+        assert np.all(np.abs(h[:, 3:]) <= core.turbulence.rate_clip_radps + 1e-12)
         assert np.any(h != 0.0)
         gusts[seed] = h
     assert not np.allclose(gusts[1], gusts[2])
@@ -206,5 +207,35 @@ def test_flight_core_takes_the_intensity_from_its_config():
     core = FlightCore(CoreConfig(turbulence_intensity="light", sensor_noise=False))
     core.reset(seed=0, altitude_m=15000.0)  # 49,000 ft: light turbulence ends at 35,000-45,000 ft
     assert not np.any(core.turbulence.wind_mps)
+    core = FlightCore(CoreConfig(turbulence_intensity="moderate", sensor_noise=False))
+    core.reset(seed=0, altitude_m=5000.0)
+    np.testing.assert_allclose(core.turbulence.wind_clip_mps, 4 * np.array(turb.intensities_mps(5000.0, "moderate")))
     with pytest.raises(ValueError, match="turbulence_intensity"):
         CoreConfig(turbulence_intensity="strong")
+
+
+# ----------------------------------------------------------------------------- clips
+
+@pytest.mark.parametrize("altitude_m, eas_mps", [(500.0, 8.0), (5000.0, 12.0), (20000.0, 8.0)])
+def test_default_clip_is_as_rare_as_the_wind_clip(altitude_m, eas_mps, tas_mps):
+    series = turb.dryden_series(100000, altitude_m, tas_mps(altitude_m, eas_mps), SPAN_M, 0.05,
+                                np.random.default_rng(7))
+    # The clip is 4 of each channel's standard deviations (5,000 s over time constants of 2-7 s:
+    # the sample value within 2 %) ...
+    np.testing.assert_allclose(series.rate_radps.std(axis=0), series.rate_clip_radps / 4, rtol=0.05)
+    # ... beyond which a Gaussian lies 0.006 % of the time; 1 % leaves room for the sampling.
+    assert np.all(np.mean(np.abs(series.rate_radps) >= series.rate_clip_radps, axis=0) < 0.01)
+    assert np.all(np.mean(np.abs(series.wind_mps) >= series.wind_clip_mps, axis=0) < 0.01)
+
+
+def test_paper_clip_is_2_mps_and_0_3_degps(tas_mps):
+    series = turb.dryden_series(20000, 5000.0, tas_mps(5000.0, 10.0), SPAN_M, 0.05, np.random.default_rng(8),
+                                clip="paper")
+    np.testing.assert_array_equal(series.wind_clip_mps, 2.0)
+    np.testing.assert_allclose(np.degrees(series.rate_clip_radps), 0.3)
+    np.testing.assert_allclose(np.degrees(np.abs(series.rate_radps).max(axis=0)), 0.3)  # and reached
+    core = FlightCore(CoreConfig(turbulence_clip="paper", sensor_noise=False))
+    core.reset(seed=0)
+    np.testing.assert_allclose(np.degrees(core.turbulence.rate_clip_radps), 0.3)
+    with pytest.raises(ValueError, match="turbulence_clip"):
+        CoreConfig(turbulence_clip="none")
