@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from jsbsim_env import disturbances as dist
+from jsbsim_env import turbulence as turb
 from jsbsim_env.model_check import SCALED_TERMS
 from jsbsim_env.sim import (
     CONTROL_INPUTS,
@@ -69,7 +70,8 @@ class Envelope:
 
 @dataclass(frozen=True)
 class CoreConfig:
-    """Disturbances and episode start. Defaults are SPEC's training setting (all disturbances on)."""
+    """Disturbances and episode start. Defaults are SPEC's training setting (all disturbances on),
+    but for the clip of the turbulence rates (``turbulence_clip``)."""
 
     sim_rate_hz: float = 120.0
     control_interval_s: tuple[float, float] = (0.040, 0.060)
@@ -78,7 +80,14 @@ class CoreConfig:
     noise_reversion_per_s: float = 0.0  # "mean-reversion rate 0 (as printed)"
     parameters: str = dist.RANDOMISED  # Table 4 draw, or a fixed set: "nominal", "positive", "negative"
     turbulence: bool = True
+    # "paper": turbulence_sigma_mps on each axis at every altitude (SPEC); or a MIL-F-8785C
+    # severity, "light", "moderate" or "severe", whose intensity falls with altitude.
+    turbulence_intensity: str = turb.PAPER
     turbulence_sigma_mps: float = 0.5
+    # "4sigma": each wind and rate channel clipped at 4 of its standard deviations, as rarely as
+    # the paper's +-2 m/s wind clip at 0.5 m/s; "paper": +-2 m/s and +-0.3 deg/s, which holds the
+    # rates at the clip 15-36 % of the time.
+    turbulence_clip: str = "4sigma"
     backlash_deg: float = 0.0
     altitude_range_m: tuple[float, float] = (500.0, 20000.0)
     eas_range_mps: tuple[float, float] = EAS_RANGE_MPS
@@ -88,6 +97,13 @@ class CoreConfig:
     perturb_eas_mps: float = 1.0
     max_steps: int = 500  # turbulence is generated for this many control intervals
     envelope: Envelope = field(default_factory=Envelope)
+
+    def __post_init__(self):
+        if self.turbulence_intensity != turb.PAPER and self.turbulence_intensity not in turb.SEVERITIES:
+            raise ValueError(f"turbulence_intensity {self.turbulence_intensity!r}: use {turb.PAPER!r} or one of "
+                             f"{sorted(turb.SEVERITIES)}")
+        if self.turbulence_clip not in turb.CLIPS:
+            raise ValueError(f"turbulence_clip {self.turbulence_clip!r}: use one of {turb.CLIPS}")
 
     @classmethod
     def ideal(cls, **overrides) -> CoreConfig:
@@ -234,8 +250,9 @@ class FlightCore:
         self.setup = EpisodeSetup(seed, alt, eas, interval, delay, scales, trim_command)
         self.turbulence = None
         if cfg.turbulence:
-            self.turbulence = dist.dryden_series(cfg.max_steps + 1, alt, tas, self.span_m, cfg.turbulence_sigma_mps,
-                                                 interval, np.random.default_rng(turbulence_seed))
+            self.turbulence = turb.dryden_series(cfg.max_steps + 1, alt, tas, self.span_m, interval,
+                                                 np.random.default_rng(turbulence_seed), cfg.turbulence_intensity,
+                                                 cfg.turbulence_sigma_mps, cfg.turbulence_clip)
             # Plain lists: indexing them every step is several times cheaper than numpy rows.
             self._gust_wind = self.turbulence.wind_mps.tolist()
             self._gust_rate = self.turbulence.rate_radps.tolist()
@@ -302,7 +319,7 @@ class FlightCore:
         k = min(self.step_index, len(self._gust_wind) - 1)
         g = self._get_state
         gain = self.turbulence_gain
-        ned = dist.body_to_ned(g[1](), g[2](), g[14](), self._gust_wind[k])
+        ned = turb.body_to_ned(g[1](), g[2](), g[14](), self._gust_wind[k])
         for s, v in zip(self._set_gust, ned):
             s(gain * v * M_TO_FT)
         for s, v in zip(self._set_gust_rate, self._gust_rate[k]):

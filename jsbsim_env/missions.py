@@ -46,7 +46,9 @@ class RouteConfig:
     control_rate_hz: float = 25.0
     delay_s: float = 0.04  # one control step: measurement to actuator, as on the loop bench
     turbulence_legs: tuple[int, ...] = ()  # leg numbers (0 = first leg flown) with turbulence on
+    turbulence_intensity: str = "paper"  # or a MIL-F-8785C severity (CoreConfig.turbulence_intensity)
     turbulence_sigma_mps: float = 0.5
+    turbulence_clip: str = "4sigma"  # or "paper" (CoreConfig.turbulence_clip)
     parameters: str = "nominal"  # or "positive", "negative" (SPEC Table 9), or dist.RANDOMISED
     backlash_deg: float = 0.0
     sensor_noise: bool = True
@@ -76,7 +78,8 @@ class RouteConfig:
         return CoreConfig(
             control_interval_s=(interval, interval), delay_s=(self.delay_s, self.delay_s),
             sensor_noise=self.sensor_noise, noise_reversion_per_s=self.noise_reversion_per_s, parameters=self.parameters, turbulence=bool(self.turbulence_legs),
-            turbulence_sigma_mps=self.turbulence_sigma_mps, backlash_deg=self.backlash_deg,
+            turbulence_intensity=self.turbulence_intensity, turbulence_sigma_mps=self.turbulence_sigma_mps,
+            turbulence_clip=self.turbulence_clip, backlash_deg=self.backlash_deg,
             perturb_attitude_deg=0.0, perturb_rate_degps=0.0, perturb_eas_mps=0.0,
             max_steps=math.ceil(self.duration_s * self.control_rate_hz) + 1,
         )

@@ -237,56 +237,6 @@ def test_backlash_width_reaches_jsbsim():
     assert core.sim["fcs/backlash-width-deg"] == pytest.approx(0.3)
 
 
-# ----------------------------------------------------------------------------- turbulence
-
-@pytest.mark.parametrize("altitude_m", [500.0, 10000.0, 20000.0])
-def test_turbulence_within_bounds_at_every_altitude(altitude_m):
-    rng = np.random.default_rng(int(altitude_m))
-    tas = 10.0 * math.sqrt(1.225 / Simulation_density(altitude_m))
-    series = dist.dryden_series(200000, altitude_m, tas, 35.0, 0.5, 0.05, rng)  # 300+ correlation times
-    assert np.abs(series.wind_mps).max() <= dist.WIND_LIMIT_MPS
-    assert np.abs(series.rate_radps).max() <= dist.RATE_LIMIT_RADPS
-    # Real turbulence, not zero as JSBSim's Milspec model gives at altitude.
-    np.testing.assert_allclose(series.wind_mps.std(axis=0), 0.5, rtol=0.15)
-    assert np.all(np.degrees(series.rate_radps.std(axis=0)) > 0.05)
-
-
-def Simulation_density(altitude_m: float) -> float:
-    from jsbsim_env.sim import Simulation
-
-    return Simulation().density_kg_m3(altitude_m)
-
-
-def test_turbulence_reaches_jsbsim_and_differs_between_seeds():
-    core = FlightCore(CoreConfig(sensor_noise=False))
-    gusts = {}
-    for seed in (1, 2):
-        core.reset(seed=seed, altitude_m=15000.0)
-        history = []
-        for _ in range(20):
-            core.step(core.setup.trim_command)
-            history.append([core.sim[f"atmosphere/gust-{a}-fps"] for a in ("north", "east", "down")]
-                           + [core.sim[f"atmosphere/gust-{a}-rad_sec"] for a in "pqr"])
-        h = np.array(history)
-        assert np.all(np.abs(h[:, :3]) * 0.3048 <= 2.0 * math.sqrt(3) + 1e-9)
-        assert np.all(np.abs(h[:, 3:]) <= dist.RATE_LIMIT_RADPS + 1e-12)
-        assert np.any(h != 0.0)
-        gusts[seed] = h
-    assert not np.allclose(gusts[1], gusts[2])
-
-
-def test_rotational_gust_changes_the_roll_moment():
-    core = FlightCore(CoreConfig.ideal())
-    core.reset(seed=0, altitude_m=5000.0, airspeed_eas_mps=10.0)
-    sim = core.sim
-    sim.fdm.run_ic()
-    calm = sim["moments/l-aero-lbsft"]
-    sim["atmosphere/gust-p-rad_sec"] = 0.005
-    sim.fdm.run_ic()
-    # A gust rate is the body rate with the opposite sign: it produces roll damping moment in reverse.
-    assert sim["moments/l-aero-lbsft"] != pytest.approx(calm)
-
-
 # ----------------------------------------------------------------------------- reward
 
 def test_reward_is_the_sum_of_its_terms_and_matches_eq_22():
