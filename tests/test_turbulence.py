@@ -82,14 +82,13 @@ def _tail(axis: str) -> tuple[float, float, float, float]:
 
 # Ratio bands of the model's moment over the tail's. Pitch: a w field varying along x is, at every
 # point of the x axis, what a pitch rate is, so the whole Cmq applies; the tail part alone
-# (-2 eta V_H a_t l_t / c, -12.3 with these numbers) is 80-90 % of the vortex-lattice Cmq (-14.5
-# to -15.2): ratio 1.1-1.25, to within 1 % of the MIL-F-8785C low-pass at this wavelength. The band
-# keeps the sign and the tail's share exact and leaves 15 % for revised tables either way.
-# Yaw: the fin's part of Cnr is about 0.028, the vortex-lattice Cnr 0.036-0.037: its wing part
-# (the yawing wing's spanwise change of lift and drag) needs a u varying along the span, which a v
-# field varying along x does not give, so the model overstates the gust's yaw moment by that share
-# (ratio about 1.3). The band allows it and 25 % for revised tables.
-RATIO_BANDS = {"pitch": (0.95, 1.45), "yaw": (0.95, 1.7)}
+# (-2 eta V_H a_t l_t / c) is about 94 % of the model's Cmq, the wing's own pitch damping the rest:
+# ratio about 1.06, to within 1 % of the MIL-F-8785C low-pass at this wavelength. Yaw: a v field
+# varying along x meets the fin only (the wing's share of Cnr needs a u varying along the span), and
+# the model applies the yaw gust to the tails' share of its yaw-rate derivatives; the lattice puts
+# that share about 7 % below the isolated fin's estimate (the wing's sidewash at the fin): ratio
+# about 0.93. Each band keeps the sign and the tail's share and leaves about 10 % for revised tables.
+RATIO_BANDS = {"pitch": (0.95, 1.2), "yaw": (0.8, 1.05)}
 
 
 @pytest.mark.parametrize("axis", ["pitch", "yaw"])
@@ -112,6 +111,9 @@ def test_rate_gust_gives_the_tail_moment_of_a_frozen_field(axis):
     sim = Simulation()
     trim = sim.trim(1000.0, 10.0)
     f = sim.fdm
+    # Held in its state, the aircraft has no alpha-dot; JSBSim would derive one from the
+    # accelerations the gust causes within the initial-condition pass.
+    f["aero/scale/CLadot"] = f["aero/scale/Cmadot"] = 0.0
     v0, dt_s, amplitude_mps, wavelength_m, run_in_s = trim.airspeed_tas_mps, 0.05, 0.3, 3000.0, 30.0
     area_m2, efficiency, slope_per_rad, arm_m = _tail(axis)
     t = np.arange(int((run_in_s + wavelength_m / v0) / dt_s)) * dt_s

@@ -251,6 +251,10 @@ def sideslip_increments(geometry: AircraftGeometry, cg_x_m: float, alpha_deg: fl
 VLM_DERIVATIVES = ("CYb", "Clb", "Cnb", "CYp", "Clp", "Cnp", "CLq", "Cmq", "CYq", "Cnq", "CYr", "Clr", "Cnr")
 # Derivatives that vanish by symmetry; left out of the mesh-convergence criterion.
 SYMMETRY_ZERO = ("CYq", "Cnq")
+# Roll- and yaw-rate derivatives whose tails' share is tabulated on its own: the rotational gusts
+# of a frozen field act on a part of the aircraft only (the roll gust, a spanwise gradient of w,
+# on the wing; the yaw gust, a v varying along x, on the fin).
+TAIL_SHARES = ("CYp", "Clp", "Cnp", "CYr", "Clr", "Cnr")
 
 
 @dataclass(frozen=True)
@@ -306,7 +310,9 @@ def _lattice_point(geometry: AircraftGeometry, cg_x_m: float, incidence_deg: flo
         runs.append({k: float(np.asarray(r[k]).ravel()[0]) for k in keys})
     eta = _tail_efficiency(geometry)
     wing, whole = runs
-    return {k: wing[k] + eta * (whole[k] - wing[k]) for k in keys}
+    out = {k: wing[k] + eta * (whole[k] - wing[k]) for k in keys}
+    out.update({f"{k}_tails": eta * (whole[k] - wing[k]) for k in keys if k in TAIL_SHARES})
+    return out
 
 
 def vlm_derivatives(geometry: AircraftGeometry, cg_x_m: float, incidence_deg: float,
@@ -314,9 +320,10 @@ def vlm_derivatives(geometry: AircraftGeometry, cg_x_m: float, incidence_deg: fl
     """Stability derivatives against α from the vortex lattice (wing at ``incidence_deg``, see
     ``lattice_wing_incidence_deg``; tails at their efficiency, see ``_lattice_point``): rates
     non-dimensional, angles per rad, moments in body axes about the CG, side force in wind axes
-    (AeroSandbox's conventions, which are JSBSim's)."""
+    (AeroSandbox's conventions, which are JSBSim's). ``<name>_tails`` is the tails' share of the
+    ``TAIL_SHARES`` derivatives."""
     points = [_lattice_point(geometry, cg_x_m, incidence_deg, a, mesh) for a in VLM_ALPHA_DEG]
-    return {k: np.array([p[k] for p in points]) for k in VLM_DERIVATIVES + ("CL", "CLa", "Cma")}
+    return {k: np.array([p[k] for p in points]) for k in points[0]}
 
 
 def mesh_convergence(geometry: AircraftGeometry, cg_x_m: float, incidence_deg: float, alpha_deg: float,

@@ -332,7 +332,8 @@ WING_LEVELER_DAMPING_S_PER_RAD = 0.5
 def gust_rates_system() -> str:
     return HEADER + """<!-- Rotational gusts (turbulence angular rates, rad/s, body axes) for the aerodynamic rate
      terms: the rates the air sees are the body rates minus these, as in JSBSim's own turbulence
-     (whose p/q/r-turb properties cannot be written). Zero unless a turbulence model writes them;
+     (whose p/q/r-turb properties cannot be written), over the share of the aircraft each acts on
+     (Aerodynamics.xml). Zero unless a turbulence model writes them;
      the translational gusts go to JSBSim's atmosphere/gust-*-fps. -->
 <system name="gust-rates">
   <property value="0">atmosphere/gust-p-rad_sec</property>
@@ -578,6 +579,16 @@ _AILERON_BODY_AXES = {
 _VLM_TERMS = ("CYbeta", "Clbeta", "Cnbeta", "CYp", "Clp", "Cnp", "CLq", "Cmq", "CYq", "Cnq", "CYr", "Clr", "Cnr")
 
 
+def _rate_term(rate_var: str, alpha_deg, values, profile, reynolds, indent: str) -> str:
+    """``rate_var`` times a table against alpha, plus ``profile`` against Re where given."""
+    if profile is not None:  # the viscous part the lattice cannot see
+        table = (f"{indent}  <sum>\n{_table_1d('aero/alpha-deg', alpha_deg, values, indent + '    ')}\n"
+                 f"{_table_1d('aero/Re', reynolds, profile, indent + '    ')}\n{indent}  </sum>")
+    else:
+        table = _table_1d("aero/alpha-deg", alpha_deg, values, indent + "  ")
+    return f"{indent}<product>\n{indent}  <property> {rate_var} </property>\n{table}\n{indent}</product>"
+
+
 def _term_body(name: str, data: dict, indent: str) -> str:
     """The coefficient expression (without qbar S and scales) of one term."""
     grids = data["grids"]
@@ -604,13 +615,17 @@ def _term_body(name: str, data: dict, indent: str) -> str:
         key = name.replace("beta", "b")
         rate_var = {"b": "aero/function/beta-effective-rad", "p": "aero/function/p-hat",
                     "q": "aero/function/q-hat", "r": "aero/function/r-hat"}[key[-1]]
-        if name in data["profile"]:  # plus the viscous part the lattice cannot see, against Re
-            lattice = _table_1d("aero/alpha-deg", grids["vlm_alpha_deg"], vlm[key], indent + "    ")
-            profile = _table_1d("aero/Re", re, data["profile"][name], indent + "    ")
-            table = f"{indent}  <sum>\n{lattice}\n{profile}\n{indent}  </sum>"
-        else:
-            table = _table_1d("aero/alpha-deg", grids["vlm_alpha_deg"], vlm[key], indent + "  ")
-        return f"{indent}<product>\n{indent}  <property> {rate_var} </property>\n{table}\n{indent}</product>"
+        profile = data["profile"].get(name)
+        if key[-1] not in "pr":
+            return _rate_term(rate_var, grids["vlm_alpha_deg"], vlm[key], profile, re, indent)
+        # The roll gust (a spanwise gradient of w) acts on the wing's share, the yaw gust (v varying
+        # along x) on the tails' share; the body rates act on the whole.
+        tails = np.asarray(vlm[f"{key}_tails"])
+        gust_share = np.asarray(vlm[key]) - tails if key[-1] == "p" else tails
+        whole = _rate_term(rate_var, grids["vlm_alpha_deg"], vlm[key], profile, re, indent + "  ")
+        gust = _rate_term(f"aero/function/{key[-1]}-gust-hat", grids["vlm_alpha_deg"], gust_share, None, re,
+                          indent + "  ")
+        return f"{indent}<difference>\n{whole}\n{gust}\n{indent}</difference>"
     if name in _AILERON_BODY_AXES:
         own, other, sign = _AILERON_BODY_AXES[name]
         return (f"{indent}<sum>\n"
@@ -632,14 +647,24 @@ def aerodynamics(g: AircraftGeometry, data: dict) -> str:
       zero broadside, like the side force of a flat plate (0.5 sin 2 beta).</description>
     <product> <value> 0.5 </value> <sin> <product> <value> 2 </value> <property> aero/beta-rad </property> </product> </sin> </product>
   </function>
+  <!-- Non-dimensional rates. A rotational gust is a rate of the air: the aircraft sees its body
+       rate minus it. The pitch gust (w varying along x) acts on the whole aircraft like a pitch
+       rate; the roll gust only on the wing's share and the yaw gust only on the tails' share of
+       their derivatives, so those two are separate. -->
   <function name="aero/function/p-hat">
-    <product> <difference> <property> velocities/p-aero-rad_sec </property> <property> atmosphere/gust-p-rad_sec </property> </difference> <property> aero/bi2vel </property> </product>
+    <product> <property> velocities/p-aero-rad_sec </property> <property> aero/bi2vel </property> </product>
+  </function>
+  <function name="aero/function/p-gust-hat">
+    <product> <property> atmosphere/gust-p-rad_sec </property> <property> aero/bi2vel </property> </product>
   </function>
   <function name="aero/function/q-hat">
     <product> <difference> <property> velocities/q-aero-rad_sec </property> <property> atmosphere/gust-q-rad_sec </property> </difference> <property> aero/ci2vel </property> </product>
   </function>
   <function name="aero/function/r-hat">
-    <product> <difference> <property> velocities/r-aero-rad_sec </property> <property> atmosphere/gust-r-rad_sec </property> </difference> <property> aero/bi2vel </property> </product>
+    <product> <property> velocities/r-aero-rad_sec </property> <property> aero/bi2vel </property> </product>
+  </function>
+  <function name="aero/function/r-gust-hat">
+    <product> <property> atmosphere/gust-r-rad_sec </property> <property> aero/bi2vel </property> </product>
   </function>
   <function name="aero/function/CL-static">
     <description>Lift coefficient of the clean aircraft, for the induced adverse yaw of the ailerons.</description>
