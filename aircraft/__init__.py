@@ -8,6 +8,8 @@ in an installed package it is the ``site-packages`` folder this package sits in.
 
 from __future__ import annotations
 
+import hashlib
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 AIRCRAFT_NAME = "solar_uav"
@@ -27,3 +29,20 @@ def aircraft_dir(name: str = AIRCRAFT_NAME) -> Path:
 def reset_files(name: str = AIRCRAFT_NAME) -> list[str]:
     """Names (without ``.xml``) of the aircraft's initial-condition files, sorted."""
     return sorted(p.stem for p in aircraft_dir(name).glob("reset*.xml"))
+
+
+def model_fingerprint(name: str = AIRCRAFT_NAME, folder: Path | None = None) -> str:
+    """SHA-256 of an aircraft's model: every XML file of its folder (``folder``, or the packaged
+    aircraft ``name``) but the initial conditions, with its path relative to the folder.
+
+    Two aircraft with the same fingerprint fly alike; training records keep it, so that a
+    controller can be told apart from the aircraft it was not trained on.
+    """
+    folder = Path(folder) if folder is not None else aircraft_dir(name)
+    digest = hashlib.sha256()
+    for path in sorted(folder.rglob("*.xml")):
+        data = path.read_bytes()
+        if ET.fromstring(data).tag == "initialize":  # where a flight starts, not how it flies
+            continue
+        digest.update(path.relative_to(folder).as_posix().encode() + b"\0" + data + b"\0")
+    return digest.hexdigest()

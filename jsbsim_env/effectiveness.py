@@ -3,7 +3,8 @@
 At each altitude the aircraft is trimmed; then, at the trimmed state,
 
 * the control moment per degree of each surface (aileron -> roll, elevator -> pitch,
-  rudder -> yaw) is the central difference of JSBSim's aerodynamic moment over +-1 deg;
+  rudder -> yaw) is its control derivative measured through JSBSim (central differences of the
+  aerodynamic moment over +-1 deg, ``jsbsim_env.derivatives``);
 * the rate authority per degree is that moment over the axis inertia, divided by the axis's
   rate damping (Lp, Mq, Nr from ``jsbsim_env.modes.linearise``): the steady rate one degree holds
   against the damping, which sets how fast the attitude follows;
@@ -20,37 +21,34 @@ import math
 
 import numpy as np
 
+from jsbsim_env import derivatives
 from jsbsim_env.modes import linearise
-from jsbsim_env.sim import Simulation, TrimResult
+from jsbsim_env.sim import FT_TO_M, Simulation
 
 FT_LBF_TO_N_M = 1.3558179483314
-SURFACE_AXES = {"aileron": ("l", 0), "elevator": ("m", 1), "rudder": ("n", 2)}
-DEFLECTION_DEG = 1.0
-
-
-def _moments_at(sim: Simulation, trim: TrimResult, surfaces_deg: dict[str, float], throttle: float) -> np.ndarray:
-    """Aerodynamic moments (N m, body roll/pitch/yaw) and total thrust (N) with the given controls."""
-    sim.place_with_controls(trim.altitude_m, trim.airspeed_tas_mps, trim.alpha_deg, surfaces_deg["aileron"],
-                            surfaces_deg["elevator"], surfaces_deg["rudder"], throttle)
-    moments = [sim[f"moments/{a}-aero-lbsft"] * FT_LBF_TO_N_M for a in "lmn"]
-    return np.array([*moments, sim.thrust_n()])
+PSF_TO_PA = 47.880258889
+SURFACE_AXES = {"aileron": ("Clda", "bw-ft", 0), "elevator": ("Cmde", "cbarw-ft", 1), "rudder": ("Cndr", "bw-ft", 2)}
 
 
 def effectiveness_at(sim: Simulation, altitude_m: float, airspeed_eas_mps: float = 10.0) -> dict[str, float]:
-    """Effectiveness figures at one altitude (SI units; see the module docstring)."""
+    """Effectiveness figures at one altitude (SI units; see the module docstring).
+
+    The moments per degree are the surfaces' own control derivatives measured through JSBSim
+    (``jsbsim_env.derivatives``, the alpha-dot a deflection causes set apart).
+    """
+    control = derivatives.measure(sim, altitude_m, airspeed_eas_mps)
     trim = sim.trim(altitude_m, airspeed_eas_mps)
     a_long, a_lat = linearise(sim, trim)
     damping = {"aileron": -a_lat[2, 2], "elevator": -a_long[3, 3], "rudder": -a_lat[3, 3]}  # 1/s
     inertia = np.diag(np.asarray(sim.fdm.get_mass_balance().get_J())) * FT_LBF_TO_N_M  # kg m^2
-    trimmed = {"aileron": 0.0, "elevator": trim.elevator_deg, "rudder": 0.0}
+    qbar_s = sim["aero/qbar-psf"] * PSF_TO_PA * sim["metrics/Sw-sqft"] * FT_TO_M**2
     out = {"altitude_m": altitude_m, "airspeed_tas_mps": trim.airspeed_tas_mps}
-    for surface, (axis, k) in SURFACE_AXES.items():
-        plus = _moments_at(sim, trim, {**trimmed, surface: trimmed[surface] + DEFLECTION_DEG}, trim.throttle)
-        minus = _moments_at(sim, trim, {**trimmed, surface: trimmed[surface] - DEFLECTION_DEG}, trim.throttle)
-        moment = (plus[k] - minus[k]) / (2 * DEFLECTION_DEG)
+    for surface, (name, length, k) in SURFACE_AXES.items():
+        moment = control[name] * qbar_s * sim[f"metrics/{length}"] * FT_TO_M * math.pi / 180.0
         out[f"{surface}_moment_nm_per_deg"] = float(moment)
         out[f"{surface}_rate_degps_per_deg"] = float(math.degrees(moment / inertia[k] / damping[surface]))
-    out["thrust_full_throttle_n"] = float(_moments_at(sim, trim, trimmed, 1.0)[3])
+    sim.place_with_controls(altitude_m, trim.airspeed_tas_mps, trim.alpha_deg, 0.0, trim.elevator_deg, 0.0, 1.0)
+    out["thrust_full_throttle_n"] = sim.thrust_n()
     out["thrust_trim_n"] = trim.thrust_n
     sim.trim(altitude_m, airspeed_eas_mps)
     return out

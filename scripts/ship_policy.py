@@ -44,6 +44,9 @@ def main() -> None:
                          "give its --command and --commit")
         sessions.insert(0, {"command": args.command, "commit": args.commit, "dirty": None, "frames_at_start": 0})
     sessions = [s for s in sessions if s["frames_at_start"] < meta["frames"]]  # those that trained this policy
+    models = {s.get("aircraft_model") for s in sessions}
+    if len(models) > 1:
+        parser.error(f"{args.run_dir} was trained on more than one aircraft model ({sorted(map(str, models))})")
     SHIPPED_DIR.mkdir(parents=True, exist_ok=True)
     target = SHIPPED_DIR / SHIPPED_POLICY
     shutil.copyfile(source, target)
@@ -51,6 +54,7 @@ def main() -> None:
     results = evaluate(PolicyRuntime(target), episodes=args.episodes, plot_dir=None)
     record = {
         "command": sessions[0]["command"], "commit": sessions[0]["commit"], "sessions": sessions,
+        "aircraft_model": models.pop(),
         "seed": meta["seed"], "frames": meta["frames"],
         "training_evaluation": meta["evaluation"],
         "config": json.loads((args.run_dir / "config.json").read_text()),

@@ -241,3 +241,17 @@ def test_aero_data_regenerates_from_the_geometry():
     """The committed aero_data.json is what the analyses compute from the geometry (about 20 s)."""
     pytest.importorskip("aerosandbox")
     _assert_nested_close(aero_data.compute_aero_data(AircraftGeometry()), aero_data.load())
+
+
+def test_model_fingerprint_follows_the_model_not_the_initial_conditions(tmp_path):
+    folder = tmp_path / "solar_uav"
+    shutil.copytree(aircraft.aircraft_dir(), folder)
+    assert aircraft.model_fingerprint(folder=folder) == aircraft.model_fingerprint()
+    reset = folder / "reset00.xml"
+    reset.write_text(reset.read_text().replace("<psi unit=\"DEG\"> 0 </psi>", "<psi unit=\"DEG\"> 90 </psi>"))
+    assert "90 </psi>" in reset.read_text()
+    assert aircraft.model_fingerprint(folder=folder) == aircraft.model_fingerprint()
+    mass = folder / "MassBalance.xml"
+    mass.write_text(mass.read_text().replace("<emptywt unit=\"KG\"> 359 </emptywt>", "<emptywt unit=\"KG\"> 360 </emptywt>"))
+    assert "360 </emptywt>" in mass.read_text()
+    assert aircraft.model_fingerprint(folder=folder) != aircraft.model_fingerprint()

@@ -37,6 +37,9 @@ def test_quick_report_writes_every_named_file(tmp_path):
     for key in ("route_10km", "perturbation", "altitudes", "backlash", "doublets", "effectiveness"):
         assert key in metrics
     assert "| PID | ours |" in text and "| RL | ours |" in text
+    # It says which aircraft model the policy was trained on: this one was saved without a record.
+    assert metrics["policy"]["trained_on_aircraft_model"] is None
+    assert "whose record names no aircraft model" in text
     # The PID's rows match its metrics.
     pid = metrics["route_10km"]["PID"]["turbulent_leg"]
     assert f"| PID | ours | {pid['rmse_roll_deg']:.3f} |" in text

@@ -20,6 +20,7 @@ def test_shipped_record_names_command_seed_and_commit():
     assert all(s["frames_at_start"] < meta["frames"] for s in record["sessions"])
     assert record["evaluation"]["episodes"]["count"] >= 50
     assert onnx_source_digest(path.with_suffix(".onnx")) == policy_digest(path)  # the export of this very file
+    assert len(record["aircraft_model"]) == 64  # the fingerprint of the aircraft model it was trained on
 
 
 def test_shipped_policy_flies_a_disturbed_episode_without_early_end():

@@ -131,12 +131,16 @@ def test_train_script_records_each_session_for_the_shipped_record(tmp_path):
     assert script.main([*tiny, "--collector.total_frames", "96"]) == 0
     run = tmp_path / "run"
     assert script.main(["--resume", str(run), "--collector.total_frames", "128"]) == 0
-    from training.provenance import git_commit, read_sessions
+    import aircraft
+    from training.provenance import git_commit, read_sessions, trained_aircraft_model
 
     first, second = read_sessions(run)
     assert first["command"].startswith("python scripts/train_torchrl.py --seed 3") and first["frames_at_start"] == 0
     assert "--resume" in second["command"] and second["frames_at_start"] == 96
     assert first["commit"] == git_commit()[0]
+    assert first["aircraft_model"] == second["aircraft_model"] == aircraft.model_fingerprint()
+    # A policy in the run folder is known to be trained on that model.
+    assert trained_aircraft_model(run / "best_policy.pt") == aircraft.model_fingerprint()
     assert int(_rows(run)[-1]["frames"]) == 128
 
 

@@ -1,6 +1,7 @@
 """Where a run came from: each training session appends one line to ``RUN_DIR/sessions.jsonl``
-with the command, the commit (and whether the tree had uncommitted changes) and the step count it
-started at, so a shipped policy can name the exact commands and commits that produced it.
+with the command, the commit (and whether the tree had uncommitted changes), the fingerprint of
+the aircraft model it flew and the step count it started at, so a shipped policy can name the
+exact commands, commits and aircraft that produced it.
 """
 
 from __future__ import annotations
@@ -10,6 +11,8 @@ import shlex
 import subprocess
 import time
 from pathlib import Path
+
+import aircraft
 
 SESSIONS_FILE = "sessions.jsonl"
 REPO_ROOT = Path(__file__).resolve().parents[1]
@@ -34,7 +37,8 @@ def append_session(run_dir: Path | str, argv: list[str], frames: int) -> dict:
     """Record one training session of the run in ``run_dir``; returns the record."""
     commit, dirty = git_commit()
     record = {"started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "command": shlex.join(argv),
-              "commit": commit, "dirty": dirty, "frames_at_start": int(frames)}
+              "commit": commit, "dirty": dirty, "aircraft_model": aircraft.model_fingerprint(),
+              "frames_at_start": int(frames)}
     with (Path(run_dir) / SESSIONS_FILE).open("a") as fh:
         fh.write(json.dumps(record) + "\n")
     return record
@@ -46,3 +50,15 @@ def read_sessions(run_dir: Path | str) -> list[dict]:
     if not path.exists():
         return []
     return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+def trained_aircraft_model(policy_path: Path | str) -> str | None:
+    """Fingerprint of the aircraft model a policy file was trained on (``aircraft.model_fingerprint``):
+    from the record beside a shipped policy, or from the sessions of the run folder it sits in;
+    None when neither names one."""
+    path = Path(policy_path)
+    record = path.with_suffix(".json")
+    if record.exists():
+        return json.loads(record.read_text()).get("aircraft_model")
+    models = {s.get("aircraft_model") for s in read_sessions(path.parent)}
+    return models.pop() if len(models) == 1 else None

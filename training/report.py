@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+import aircraft
 from jsbsim_env.controllers.pid import PIDAttitudeController
 from jsbsim_env.effectiveness import effectiveness, plot_effectiveness
 from jsbsim_env.missions import MissionResult, RouteConfig, fly_route
@@ -68,17 +69,39 @@ class ReportPlan:
                    effectiveness_altitudes_m=(0.0, 20000.0), steady_after_leg_change_s=5.0)
 
 
-def _controllers(policy_path) -> dict[str, Callable[[], object]]:
-    """Factories of the attitude controllers to compare; the policy only when one is available."""
+def _controllers(policy_path) -> tuple[dict[str, Callable[[], object]], Path | None]:
+    """Factories of the attitude controllers to compare, the policy only when one is available;
+    and the policy file (None without one)."""
     makers: dict[str, Callable[[], object]] = {"PID": PIDAttitudeController}
     from training.policy import PolicyFileError, PolicyRuntime, shipped_policy_path
 
     path = Path(policy_path) if policy_path is not None else shipped_policy_path()
     if path.exists():
         makers["RL"] = lambda: PolicyRuntime(path)
-    elif policy_path is not None:
+        return makers, path
+    if policy_path is not None:
         raise PolicyFileError(f"policy file {path} does not exist")
-    return makers
+    return makers, None
+
+
+def policy_provenance(path: Path) -> dict[str, str | None]:
+    """The policy file, the aircraft model it was trained on and the one the report flies
+    (``aircraft.model_fingerprint``)."""
+    from training.provenance import trained_aircraft_model
+
+    return {"path": str(path), "trained_on_aircraft_model": trained_aircraft_model(path),
+            "flown_aircraft_model": aircraft.model_fingerprint()}
+
+
+def _provenance_line(policy: dict) -> str:
+    trained, flown = policy["trained_on_aircraft_model"], policy["flown_aircraft_model"]
+    start = f"The RL rows fly `{policy['path']}`"
+    if trained is None:
+        return f"{start}, whose record names no aircraft model; this report flies aircraft model `{flown[:12]}`."
+    if trained == flown:
+        return f"{start}, trained on the aircraft model this report flies (`{flown[:12]}`)."
+    return (f"{start}, trained on aircraft model `{trained[:12]}`, not on the one this report flies "
+            f"(`{flown[:12]}`): its rows show it on an aircraft it was not trained on.")
 
 
 def steady_mask(result: MissionResult, after_s: float) -> np.ndarray:
@@ -232,13 +255,15 @@ def run_report(out_dir: Path | str, policy_path: Path | str | None = None, quick
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     plan = ReportPlan.quick() if quick else ReportPlan()
-    makers = _controllers(policy_path)
+    makers, policy_file = _controllers(policy_path)
     names = list(makers)
     base = RouteConfig(altitude_m=10_000.0, duration_s=plan.route_10km_s, turbulence_legs=(plan.turbulence_leg,),
                        seed=ROUTE_SEED)
     tasks: list[tuple[str, Callable[[], None]]] = []
     metrics: dict = {"plan": asdict(plan), "controllers": names, "paper": {"table8": PAPER_TABLE8,
                      "level_mae": PAPER_LEVEL_MAE, "steady_state": PAPER_STEADY_STATE}}
+    if policy_file is not None:
+        metrics["policy"] = policy_provenance(policy_file)
     routes: dict[tuple[str, str], MissionResult] = {}
 
     def fly(key: str, name: str, config: RouteConfig) -> MissionResult:
@@ -369,6 +394,8 @@ def render_markdown(metrics: dict, out: Path) -> str:
     lines = ["# Solar UAV attitude control: the paper's experiments", ""]
     if "RL" not in names:
         lines += ["No trained policy was available: the policy's rows and figures are missing.", ""]
+    if "policy" in metrics:
+        lines += [_provenance_line(metrics["policy"]), ""]
     figures = sorted(p.name for p in out.glob("fig*.png"))
 
     lines += ["## Table 8: the turbulent leg of the 10 km route (same seeds)", "",

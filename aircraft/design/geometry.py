@@ -142,8 +142,8 @@ class AircraftGeometry:
     # equivalent airspeed and the present air density (see Systems/rotor_speed.xml).
     throttle_reference_eas_mps: float = 10.0
     rotor_inertia_kg_m2: float = 0.3  # propeller and motor rotor about the shaft (carbon blades, 1.5 kg)
-    # Shaft power per motor: twice what cruise at 20 km and 12 m/s EAS needs, which sets the margin
-    # there; near sea level it caps the rotor speed the throttle can command.
+    # Shaft power per motor: three times what cruise at 20 km and 12 m/s EAS needs (6.8 kW for the
+    # four), which sets the climb margin there; full throttle is this power (Systems/rotor_speed.xml).
     motor_max_power_w: float = 5000.0
     esc_time_constant_s: float = 0.03  # closed speed loop of the motor controller
     rotor_time_constant_s: float = 0.2  # SPEC §1 (throttle lag)

@@ -324,7 +324,7 @@ def scaling_system(g: AircraftGeometry, data: dict) -> str:
 # Wing leveler gains: aileron command (normalised) per degree of bank error and per rad/s of roll
 # rate. A positive aileron rolls left here, so both gains are positive. With the roll rate of about
 # -0.25 rad/s per unit command the bank error closes with a time constant near 2.5 s, far faster
-# than the spiral divergence (doubling in 6-65 s across the envelope).
+# than the spiral divergence (doubling in 6-33 s across the envelope).
 WING_LEVELER_GAIN_PER_DEG = 0.03
 WING_LEVELER_DAMPING_S_PER_RAD = 0.5
 
