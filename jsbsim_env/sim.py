@@ -126,6 +126,12 @@ class Simulation:
         self.dt_s = 1.0 / sim_rate_hz
         self.engine_count = self.fdm.get_propulsion().get_num_engines()
         self.fdm["ic/terrain-elevation-ft"] = TERRAIN_ELEVATION_M * M_TO_FT
+        # JSBSim 1.3 leaves a propeller's absorbed power uninitialised until the propeller's first
+        # step, and the motors' speed controllers (Systems/rotor_speed.xml) read it in the flight
+        # control, which runs before the propulsion: whatever the heap held (at times a NaN) would
+        # reach the rotors and, through them, every state. Found with valgrind's memcheck.
+        for i in range(self.engine_count):
+            self.fdm[f"propulsion/engine[{i}]/propeller-power-ftlbps"] = 0.0
         # JSBSim flies a model with missing elements (reading them as 0); refuse it here. This
         # also runs the first initial-condition pass.
         validate_loaded_model(self.fdm, self.root / "aircraft" / aircraft_name / f"{aircraft_name}.xml")

@@ -255,3 +255,17 @@ def test_model_fingerprint_follows_the_model_not_the_initial_conditions(tmp_path
     mass.write_text(mass.read_text().replace("<emptywt unit=\"KG\"> 359 </emptywt>", "<emptywt unit=\"KG\"> 360 </emptywt>"))
     assert "360 </emptywt>" in mass.read_text()
     assert aircraft.model_fingerprint(folder=folder) != aircraft.model_fingerprint()
+
+
+def test_a_new_simulation_does_not_depend_on_what_the_heap_held():
+    """JSBSim 1.3 leaves a propeller's absorbed power uninitialised until its first step, while the
+    motors' speed controllers read it in the flight control, which runs first (found with
+    valgrind). With freed memory full of NaN, every new simulation used to start with NaN
+    accelerations; ``Simulation`` now starts that power at 0."""
+    for _ in range(10):
+        junk = [np.full(n // 8, np.nan) for n in range(256, 4096, 8) for _ in range(3)]
+        del junk
+        s = Simulation()
+        s.set_initial_conditions(1000.0, 10.5)
+        assert math.isfinite(s["accelerations/wdot-ft_sec2"])
+        assert all(math.isfinite(s[f"fcs/esc-{i}-power-norm"]) for i in range(s.engine_count))
