@@ -95,26 +95,6 @@ def _operating_point(reynolds: float, geometry: AircraftGeometry, alpha_deg=0.0,
 LATTICE_SECTION = "naca0010"
 
 
-def lattice_wing_incidence_deg(geometry: AircraftGeometry, cg_x_m: float, alpha_deg: float,
-                               lift_coefficient: float, mesh: LatticeMesh | None = None) -> float:
-    """Root incidence of the flat lattice wing at which the aircraft's lattice lift coefficient at
-    ``alpha_deg`` is ``lift_coefficient``: secant steps from 0° and 1° (the lift is almost linear
-    in the incidence; only the panels' tilt is not)."""
-    mesh = mesh or VLM_MESH
-
-    def lift(incidence_deg: float) -> float:
-        return _lattice_point(geometry, cg_x_m, incidence_deg, alpha_deg, mesh, derivatives=False)["CL"]
-
-    x0, x1 = 0.0, 1.0
-    f0, f1 = lift(x0) - lift_coefficient, lift(x1) - lift_coefficient
-    for _ in range(4):
-        x0, x1, f0 = x1, x1 - f1 * (x1 - x0) / (f1 - f0), f1
-        f1 = lift(x1) - lift_coefficient
-        if abs(f1) < 1e-4 * lift_coefficient:
-            break
-    return x1
-
-
 def _wing(geometry: AircraftGeometry, extra_twist: tuple[tuple[float, float], ...] = (), name: str = "wing",
           mirrored: bool | None = None, lattice_incidence_deg: float | None = None):
     """The main wing, symmetric; or, when ``mirrored`` is given, one half of it (the right one, or the
@@ -264,8 +244,8 @@ class LatticeMesh:
     Spanwise panels are evenly spaced: AeroSandbox's default cosine spacing puts sliver panels
     (a thousandth of the chord wide) at both ends of every segment, and where two segments meet
     those slivers make the influence matrix ill-conditioned: from 20 panels per segment on,
-    Cnp jumped from -0.04 to +0.9. Chordwise panels keep the cosine spacing, which resolves the
-    leading edge and the aft camber of the FX 63-137.
+    Cnp jumped from -0.04 to +0.9. Chordwise panels keep AeroSandbox's cosine spacing, which
+    resolves the leading and trailing edges of the (flat, see ``LATTICE_SECTION``) sections.
     """
 
     spanwise: int
@@ -339,6 +319,26 @@ def mesh_convergence(geometry: AircraftGeometry, cg_x_m: float, incidence_deg: f
             for k in VLM_DERIVATIVES + ("CL", "CLa", "Cma") if k not in SYMMETRY_ZERO}
 
 
+def lattice_wing_incidence_deg(geometry: AircraftGeometry, cg_x_m: float, alpha_deg: float,
+                               lift_coefficient: float, mesh: LatticeMesh | None = None) -> float:
+    """Root incidence of the flat lattice wing at which the aircraft's lattice lift coefficient at
+    ``alpha_deg`` is ``lift_coefficient``: secant steps from 0° and 1° (the lift is almost linear
+    in the incidence; only the panels' tilt is not)."""
+    mesh = mesh or VLM_MESH
+
+    def lift(incidence_deg: float) -> float:
+        return _lattice_point(geometry, cg_x_m, incidence_deg, alpha_deg, mesh, derivatives=False)["CL"]
+
+    x0, x1 = 0.0, 1.0
+    f0, f1 = lift(x0) - lift_coefficient, lift(x1) - lift_coefficient
+    for _ in range(4):
+        x0, x1, f0 = x1, x1 - f1 * (x1 - x0) / (f1 - f0), f1
+        f1 = lift(x1) - lift_coefficient
+        if abs(f1) < 1e-4 * lift_coefficient:
+            break
+    return x1
+
+
 def section_increments(airfoil_name: str, hinge_x: float, reynolds: float, mach: float) -> dict[str, np.ndarray]:
     """Δcl, Δcd, Δcm of a section against deflection (trailing edge down positive), NeuralFoil."""
     import aerosandbox as asb
@@ -395,10 +395,9 @@ def control_increments(geometry: AircraftGeometry, cg_x_m: float, lift_slopes: d
     """
     w, a = geometry.wing, geometry.aileron
     S, b, c = geometry.reference_area_m2, geometry.reference_span_m, geometry.reference_chord_m
-    half_span = w.span_m / 2.0
     # Aileron strip integrals over the tapered outer panel.
     y = np.linspace(a.inner_y_m, a.outer_y_m, 201)
-    chord = w.root_chord_m + (y - w.kink_y_m) / (half_span - w.kink_y_m) * (w.tip_chord_m - w.root_chord_m)
+    chord = _wing_chord_m(geometry, y)
     int_c, int_cy, int_c2 = (np.trapezoid(chord, y), np.trapezoid(chord * y, y), np.trapezoid(chord**2, y))
     dihedral = np.radians(w.outer_dihedral_deg)
     x_quarter_chord_m = w.root_chord_m / 4.0  # straight quarter-chord line

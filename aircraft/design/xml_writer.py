@@ -571,7 +571,8 @@ def _deflection_sum(surface: str, key: str, data: dict, indent: str) -> str:
     return f"{indent}<sum>\n" + "\n".join(pieces) + f"\n{indent}</sum>"
 
 
-# Stability to body axes for the aileron's moments: (rolling sign of the yaw part, yawing sign of the roll part).
+# The aileron's moments from stability to body axes: term -> (its own stability-axis moment, the
+# other one, the sign of the other's sin(alpha) share); the own one enters with cos(alpha).
 _AILERON_BODY_AXES = {
     "Clda": ("aero/function/aileron-Cl-stability", "aero/function/aileron-Cn-stability", -1),
     "Cnda": ("aero/function/aileron-Cn-stability", "aero/function/aileron-Cl-stability", 1),
