@@ -12,8 +12,9 @@ edge left, aileron right surface down).
 
 JSBSim computes alpha-dot from the body accelerations, so every perturbed state also carries an
 alpha-dot. Its effect is measured on its own first (states that differ only in bank angle differ
-only in the gravity component along the body z axis, hence only in alpha-dot) and removed from the
-other differences, so that each derivative is a partial one.
+only in the gravity components along the body y and z axes, hence only in beta-dot, which no term
+of the model uses, and alpha-dot) and removed from the other differences, so that each derivative
+is a partial one.
 """
 
 from __future__ import annotations

@@ -40,7 +40,7 @@ ROTOR_RPM_GUESS_PER_TAS_MPS = 25.0
 # filter's stable range, so the rotors follow their speed controllers' own 0.03 s loop.
 FAST_SETTLE_LAG_PER_S = 50.0
 
-# Initial-condition passes until alpha-dot is the state's own (each pass cuts the error about 100-fold).
+# Initial-condition passes until alpha-dot is the state's own (each cuts the change 80- to 10,000-fold).
 MAX_ALPHADOT_PASSES = 6
 ALPHADOT_TOL_RADPS = 1e-9
 
@@ -171,9 +171,9 @@ class Simulation:
         """Place the aircraft and run JSBSim's initial-condition pass.
 
         JSBSim takes alpha-dot from the accelerations of the pass before, and the model's alpha-dot
-        terms feed it back into the accelerations; the pass is repeated until alpha-dot belongs to
-        this state (two or three passes), so that the accelerations do not depend on the state
-        placed before.
+        terms feed it back into the accelerations; the pass is repeated until alpha-dot changes by
+        less than ``ALPHADOT_TOL_RADPS`` (each pass cuts the change 80- to 10,000-fold; a 30° bank
+        change takes five), so that the accelerations do not depend on the state placed before.
         """
         f = self.fdm
         f["ic/h-sl-ft"] = altitude_m * M_TO_FT

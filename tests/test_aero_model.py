@@ -198,3 +198,19 @@ def test_moments_are_taken_about_the_cg_the_mass_model_puts_the_aircraft_at():
     cg = [sim[f"inertia/cg-{a}-in"] for a in "xyz"]
     assert reference == pytest.approx(cg, abs=1e-6)
     assert cg[0] * 0.0254 == pytest.approx(CG_X_M, abs=1e-6)
+
+
+def test_downwash_lag_follows_the_wings_angle_against_the_air():
+    """A vertical gust changes the wing's angle of attack against the air like body motion does:
+    alpha_air = alpha - w_g/V, so its rate is alpha-dot + q_g (the turbulence writes
+    q_g = -(1/V) dw_g/dt). The downwash the tail meets lags that rate, gust included."""
+    sim = Simulation()
+    sim.set_initial_conditions(1000.0, 10.5, alpha_deg=1.0)
+    qsc = sim["aero/qbar-psf"] * sim["metrics/Sw-sqft"] * sim["metrics/cbarw-ft"]
+    c_over_2v = sim["aero/ci2vel"]
+    for gust_q in (0.0, 0.02, -0.05):
+        sim["atmosphere/gust-q-rad_sec"] = gust_q
+        sim.fdm.run_ic()
+        rate = sim["aero/alphadot-rad_sec"] + gust_q
+        expected = DATA["downwash_lag"]["Cmadot"] * rate * c_over_2v
+        assert sim["aero/coefficient/Cmadot"] / qsc == pytest.approx(expected, rel=1e-5)  # the XML's 6 digits

@@ -13,7 +13,7 @@ Methods, one per kind of number:
   included), in its linear range; the tables hold their end values beyond it. The rates turn the
   aircraft about its CG, the mesh comes from a convergence study (``mesh_convergence``), and Cnr
   gains the wing's profile-drag part, which an inviscid lattice cannot see.
-* Downwash lag (CLα̇, Cmα̇): the tail-volume estimate with the polar's downwash gradient.
+* Downwash lag (CLα̇, Cmα̇): the tail-volume estimate with the polar's downwash model.
 * Sideslip increments of lift, drag and pitching moment (even in β): ``AeroBuildup`` in sideslip.
 * Control surfaces, which AeroSandbox's 3-D methods do not model: the section increments Δcl, Δcd,
   Δcm of the deflected airfoil come from NeuralFoil (``Airfoil.add_control_surface``), and are
@@ -233,7 +233,8 @@ VLM_DERIVATIVES = ("CYb", "Clb", "Cnb", "CYp", "Clp", "Cnp", "CLq", "Cmq", "CYq"
 SYMMETRY_ZERO = ("CYq", "Cnq")
 # Roll- and yaw-rate derivatives whose tails' share is tabulated on its own: the rotational gusts
 # of a frozen field act on a part of the aircraft only (the roll gust, a spanwise gradient of w,
-# on the wing; the yaw gust, a v varying along x, on the fin).
+# on the wing, the horizontal tail's small share counted with the fin's; the yaw gust, a v varying
+# along x, on the fin).
 TAIL_SHARES = ("CYp", "Clp", "Cnp", "CYr", "Clr", "Cnr")
 
 
@@ -374,8 +375,8 @@ def _mach(reynolds: float, geometry: AircraftGeometry) -> float:
 # Lifting-line theory with an elliptic base loading (Fourier term A1 = CL/(π AR)): the ailerons'
 # antisymmetric load (A2, with ΔCl = −π AR A2/4) meets the base loading in the induced drag as
 # 3 A1 A2, so the induced yawing moment is ΔCn = −3 CL ΔCl/(π AR) in stability axes (Phillips,
-# *Mechanics of Flight*, the induced yawing moment of a wing with antisymmetric loading). Once for the
-# base lift acting in the aileron's changed downwash, twice for the aileron's lift in the base
+# *Mechanics of Flight*, the induced yawing moment of a wing with antisymmetric loading): twice for
+# the base lift acting in the aileron's changed downwash, once for the aileron's lift in the base
 # downwash. ``aileron_induced_yaw_factor`` checks it with the lattice.
 AILERON_INDUCED_YAW_FACTOR = 3.0
 
@@ -488,9 +489,11 @@ def downwash_lag_derivatives(geometry: AircraftGeometry, cg_x_m: float, slopes: 
     """CLα̇ and Cmα̇ (per unit α̇ c/2V) of the tail's downwash lag.
 
     The tail meets the downwash the wing shed l_t/V earlier, ε(t) = dε/dα · α(t − l_t/V), so its
-    angle of attack gains dε/dα · α̇ · l_t/V. With the downwash the polar uses, ε = 2 CL_w/(π AR):
-    CLα̇ = 2 a_t η V_H dε/dα and Cmα̇ = −2 a_t η V_H (l_t/c) dε/dα (Etkin & Reid §5.5; Nelson §3.5),
-    a_t the tail's lift slope on its own area, V_H its volume. The lattice, being steady, has none.
+    angle of attack gains dε/dα · α̇ · l_t/V. With the polar's downwash model, ε = 2 CL_w/(π AR),
+    and the lattice's wing lift slope: CLα̇ = 2 a_t η V_H dε/dα and Cmα̇ = −2 a_t η V_H (l_t/c) dε/dα
+    (Etkin & Reid §5.5; Nelson §3.5), a_t the tail's lift slope on its own area, V_H its volume.
+    α̇ is the wing's rate against the air, gusts included (the XML writer adds the pitch gust).
+    The lattice, being steady, has none of this.
     """
     arm_m, volume = horizontal_tail_volume(geometry, cg_x_m)
     downwash_slope = 2.0 * slopes["wing_3d"] / (np.pi * geometry.aspect_ratio)

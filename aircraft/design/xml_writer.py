@@ -35,8 +35,8 @@ TERMS: dict[str, tuple[str, str]] = {
     "CLalpha": ("LIFT", "lift change with angle of attack incl. stall and post-stall, against Re (AeroBuildup)"),
     "CLbeta": ("LIFT", "lift change with sideslip, even in beta (AeroBuildup)"),
     "CLq": ("LIFT", "lift due to pitch rate about the CG (vortex lattice)"),
-    "CLadot": ("LIFT", ("lift due to the rate of change of alpha: the tail meets the wing's downwash l_t/V late "
-                       "(tail-volume estimate)")),
+    "CLadot": ("LIFT", ("lift due to the rate of change of alpha against the air (body motion and vertical "
+                       "gust): the tail meets the wing's downwash l_t/V late (tail-volume estimate)")),
     "CLde": ("LIFT", "elevator, each half by strip theory on NeuralFoil section increments"),
     "CLda": ("LIFT", "ailerons, each side by strip theory (cancels for equal and opposite deflections)"),
     "CLdr": ("LIFT", "rudder: the fin lies in the plane of symmetry, so its force has no lift component"),
@@ -62,8 +62,8 @@ TERMS: dict[str, tuple[str, str]] = {
     "Cmalpha": ("PITCH", "pitching-moment change with angle of attack, against Re (AeroBuildup, tail with downwash)"),
     "Cmbeta": ("PITCH", "pitching-moment change with sideslip, even in beta (AeroBuildup)"),
     "Cmq": ("PITCH", "pitch damping about the CG (vortex lattice)"),
-    "Cmadot": ("PITCH", ("pitching moment due to the rate of change of alpha: the tail's downwash lag "
-                        "(tail-volume estimate)")),
+    "Cmadot": ("PITCH", ("pitching moment due to the rate of change of alpha against the air: the tail's "
+                        "downwash lag (tail-volume estimate)")),
     "Cmde": ("PITCH", "elevator pitching moment, each half (tail arm, section moment, drag above the CG)"),
     "Cmda": ("PITCH", "aileron pitching moment, each side (lift ahead of the CG, section moment)"),
     "Cmdr": ("PITCH", "rudder drag acting above the CG"),
@@ -303,8 +303,10 @@ def scaling_system(g: AircraftGeometry, data: dict) -> str:
      it is applied the same way, as 1/(s + I_apparent/I) on the aerodynamic rolling and pitching
      moments. That is exact for each axis on its own and leaves out its share of the product of
      inertia (Ixz/Ixx = 0.2 %) and of the gyroscopic terms. The apparent mass in heave (0.48 of
-     the aircraft's mass at sea level) is not modelled: it acts on the vertical acceleration, which
-     JSBSim cannot feed back within a step. -->
+     the aircraft's mass at sea level) is not modelled: it would be an alpha-dot lift term (about
+     3.1 per alpha-dot c/2V at every density), and JSBSim's alpha-dot comes from the accelerations
+     of the step before, so a third of each step's vertical acceleration would return one step
+     late at sea level. -->
 <system name="scaling">
 {props}
   <property value="0" persistent="true">{APPARENT_MASS_SWITCH}</property>
@@ -432,7 +434,7 @@ def rotor_speed_system(g: AircraftGeometry, data: dict) -> str:
      The full-throttle speed is where the propellers absorb the motors' full power at EAS
      {fmt(g.throttle_reference_eas_mps)} m/s and the present air density (blade-element tables), capped at
      {fmt(g.max_rotor_speed_rpm)} rpm: a fixed maximum would leave most of the throttle range without effect near
-     sea level, where full power is reached at a third of the speed it takes at 20 km. -->
+     sea level, where full power is reached at less than half the speed it takes at 20 km. -->
 <system name="rotor_speed">
   <!-- The reference's lag (1/s) and rate limit (rpm/s) are properties only so that a simulation
        can be initialised quickly (jsbsim_env.sim.Simulation.settle_actuators); flight uses these values. -->
@@ -609,7 +611,12 @@ def _term_body(name: str, data: dict, indent: str) -> str:
         ys = list(inc[:0:-1]) + list(inc)
         return _table_1d("aero/beta-deg", xs, ys, indent)
     if name in ("CLadot", "Cmadot"):
-        return (f"{indent}<product>\n{indent}  <property> aero/alphadot-rad_sec </property>\n"
+        # The wing's angle of attack against the air changes with the body's motion (JSBSim's
+        # alpha-dot, from the accelerations) and with a vertical gust: d/dt (-w_g/V) is the pitch
+        # gust q_g the turbulence writes.
+        return (f"{indent}<product>\n"
+                f"{indent}  <sum> <property> aero/alphadot-rad_sec </property> "
+                f"<property> atmosphere/gust-q-rad_sec </property> </sum>\n"
                 f"{indent}  <property> aero/ci2vel </property>\n"
                 f"{indent}  <value> {fmt(data['downwash_lag'][name])} </value>\n{indent}</product>")
     if name in _VLM_TERMS:
