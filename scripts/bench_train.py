@@ -1,6 +1,10 @@
 """Training speed: time of one SAC update (actor, both critics, targets, CAPS) and env steps per
 second of collection, with the default configuration.
 
+``update_ms`` is the package's update (``training.sac``); ``reference_update_ms`` is TorchRL's own
+``SACLoss`` update with the same networks, batch and CAPS (``training.sac_reference``), timed in the
+same process in interleaved rounds, so that ``update_to_reference`` holds on a noisy machine.
+
     python scripts/bench_train.py --json [--device cuda] [--threads 2]
 """
 
@@ -16,17 +20,21 @@ import torch
 from torchrl.envs.utils import RandomPolicy
 
 from training.config import TrainConfig
+from training.networks import make_critic
+from training.runtime import tune_allocator
+from training.sac_reference import SACLossReference
 from training.trainer import STORED_KEYS, Trainer
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--device", default="cpu")
-    parser.add_argument("--threads", type=int, default=0, help="torch threads (0: torch's default)")
+    parser.add_argument("--threads", type=int, default=1, help="torch threads (default: 1, as training)")
     parser.add_argument("--updates", type=int, default=30)
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
+    tune_allocator()
     config = TrainConfig(device=args.device, threads=args.threads)
     config.buffer.capacity = 20_000
     config.log.progress = False
@@ -44,22 +52,36 @@ def main() -> None:
         trainer.buffer.extend(data.reshape(-1).select(*STORED_KEYS))
         random = env.rollout(250, RandomPolicy(env.action_spec), break_when_any_done=False)
         trainer.buffer.extend(random.reshape(-1).select(*STORED_KEYS))
-        update_ms = []
-        for _ in range(args.rounds):
+        reference = SACLossReference(
+            trainer.actor, make_critic(config.network.lstm_hidden, config.network.mlp_hidden), env.action_spec,
+            gamma=config.optim.gamma, tau=config.optim.tau, alpha=config.optim.alpha,
+            auto_alpha=config.optim.auto_alpha, target_entropy=config.optim.target_entropy, lr=config.optim.lr,
+            caps_kappa_temporal=config.caps.kappa_temporal, caps_kappa_spatial=config.caps.kappa_spatial,
+            caps_sigma_spatial=config.caps.sigma_spatial, caps_batch_size=config.caps.batch_size)
+
+        def time_updates(update) -> float:
             for _ in range(3):
-                trainer._update(trainer.buffer.sample())
+                update(trainer.buffer.sample())
             if trainer.device.type == "cuda":
                 torch.cuda.synchronize()
             t0 = time.perf_counter()
             for _ in range(args.updates):
-                trainer._update(trainer.buffer.sample())
+                update(trainer.buffer.sample())
             if trainer.device.type == "cuda":
                 torch.cuda.synchronize()
-            update_ms.append((time.perf_counter() - t0) / args.updates * 1e3)
+            return (time.perf_counter() - t0) / args.updates * 1e3
+
+        # Interleaved rounds: the machine's load changes both timings alike, and the ratio keeps.
+        update_ms, reference_ms = [], []
+        for _ in range(args.rounds):
+            update_ms.append(time_updates(trainer._update))
+            reference_ms.append(time_updates(lambda b: reference.update(b.to(trainer.device))))
     result = {
         "device": args.device, "threads": torch.get_num_threads(), "num_envs": config.env.num_envs,
         "batch_size": config.buffer.batch_size,
         "update_ms": statistics.median(update_ms),
+        "reference_update_ms": statistics.median(reference_ms),
+        "update_to_reference": statistics.median(u / r for u, r in zip(update_ms, reference_ms)),
         "collect_env_steps_per_s": statistics.median(collect_rates),
     }
     # The default run's time per environment step and in total (evaluations not counted).

@@ -16,6 +16,7 @@ from pathlib import Path
 
 from training.config import TrainConfig
 from training.provenance import append_session
+from training.runtime import tune_allocator
 from training.trainer import Trainer
 
 
@@ -27,6 +28,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--run-name", help="folder name under --log.run_root (default: seed and time)")
     TrainConfig.add_arguments(parser)
     args = parser.parse_args(argv)
+    tune_allocator()
     if args.resume:
         saved = TrainConfig.from_dict(json.loads((args.resume / "config.json").read_text()))
         config = TrainConfig.from_namespace(args, base=saved)

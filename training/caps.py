@@ -21,6 +21,13 @@ def deterministic_action(actor_net: ActorNet, window: torch.Tensor) -> torch.Ten
     return torch.tanh(loc)
 
 
+def caps_penalties(mu: torch.Tensor, mu_next: torch.Tensor, mu_near: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """Mean temporal and spatial penalties from the deterministic actions at s, s_t+1 and s + eps."""
+    temporal = torch.linalg.vector_norm(mu - mu_next, dim=-1).mean()
+    spatial = torch.linalg.vector_norm(mu - mu_near, dim=-1).mean()
+    return temporal, spatial
+
+
 def caps_losses(actor_net: ActorNet, batch: TensorDictBase, sigma_spatial: float,
                 generator: torch.Generator | None = None) -> tuple[torch.Tensor, torch.Tensor]:
     """Mean temporal and spatial smoothness penalties over a replay batch."""
@@ -29,7 +36,4 @@ def caps_losses(actor_net: ActorNet, batch: TensorDictBase, sigma_spatial: float
     # One forward pass for the three inputs.
     noise = torch.randn(obs.shape, generator=generator, device=obs.device, dtype=obs.dtype) * sigma_spatial
     actions = deterministic_action(actor_net, torch.cat([obs, next_obs, obs + noise], dim=0))
-    a, a_next, a_near = actions.chunk(3, dim=0)
-    temporal = torch.linalg.vector_norm(a - a_next, dim=-1).mean()
-    spatial = torch.linalg.vector_norm(a - a_near, dim=-1).mean()
-    return temporal, spatial
+    return caps_penalties(*actions.chunk(3, dim=0))

@@ -89,7 +89,8 @@ class LogSettings:
 class TrainConfig:
     seed: int = _f(0, "seed of everything: networks, exploration, environments")
     device: str = _f("cpu", "torch device for the networks and updates (cuda when present)")
-    threads: int = _f(0, "torch CPU threads for the updates (0: torch's default, all cores)")
+    threads: int = _f(1, "torch CPU threads for the updates (0: torch's default, all cores). One is fastest "
+                         "here: the networks are small, and two OpenMP threads on two busy cores ran 8 times slower")
     env: EnvSettings = field(default_factory=EnvSettings)
     collector: CollectorSettings = field(default_factory=CollectorSettings)
     buffer: BufferSettings = field(default_factory=BufferSettings)

@@ -19,17 +19,17 @@ from tensordict import TensorDictBase
 from torchrl.collectors import Collector
 from torchrl.data import LazyTensorStorage, TensorDictReplayBuffer
 from torchrl.envs.utils import ExplorationType
-from torchrl.objectives import SACLoss, SoftUpdate
 
 from jsbsim_env.core import CoreConfig
 from jsbsim_env.task import TaskConfig
 from jsbsim_env.torchrl_env import make_env
-from training.caps import caps_losses
 from training.checkpoint import CheckpointError, atomic_save, config_fingerprint, load_checkpoint, save_checkpoint
 from training.config import TrainConfig
 from training.evaluation import evaluate_policy
 from training.networks import make_actor, make_critic
 from training.relabel import relabel_goals
+from training.runtime import check_threads
+from training.sac import RecurrentSAC
 
 STORED_KEYS = ("observation", "action", ("next", "observation"), ("next", "reward"), ("next", "done"),
                ("next", "terminated"), ("next", "achieved"))
@@ -70,6 +70,7 @@ class Trainer:
         self._lock = _lock_run_dir(self.run_dir)
         if c.threads > 0:
             torch.set_num_threads(c.threads)
+        check_threads(torch.get_num_threads())
         torch.manual_seed(c.seed)
         self.device = torch.device(c.device)
         core = CoreConfig() if c.env.disturbances else CoreConfig.ideal()
@@ -77,18 +78,12 @@ class Trainer:
         self.env = make_env(c.env.num_envs, self.task_config, seed=c.seed, window=c.env.window)
         self.actor = make_actor(c.network.lstm_hidden, c.network.mlp_hidden, self.env.action_spec,
                                 c.network.initial_std).to(self.device)
-        critic = make_critic(c.network.lstm_hidden, c.network.mlp_hidden).to(self.device)
-        # nn.LSTM cannot run under vmap, which SACLoss uses for the twin critics by default.
-        self.loss = SACLoss(self.actor, critic, num_qvalue_nets=2, loss_function="l2", alpha_init=c.optim.alpha,
-                            fixed_alpha=not c.optim.auto_alpha, action_spec=self.env.action_spec,
-                            # Explicit: TorchRL's "auto" takes the size of the batched spec (8 x 4 here).
-                            target_entropy=c.optim.target_entropy, deactivate_vmap=True)
-        self.loss.make_value_estimator(gamma=c.optim.gamma)
-        self.target_update = SoftUpdate(self.loss, tau=c.optim.tau)
-        self.actor_optim = torch.optim.Adam(self.loss.actor_network_params.flatten_keys().values(), lr=c.optim.lr)
-        self.critic_optim = torch.optim.Adam(self.loss.qvalue_network_params.flatten_keys().values(), lr=c.optim.lr)
-        # With a tuned temperature, its log is one more parameter with its own optimiser.
-        self.alpha_optim = torch.optim.Adam([self.loss.log_alpha], lr=c.optim.lr) if c.optim.auto_alpha else None
+        critics = [make_critic(c.network.lstm_hidden, c.network.mlp_hidden).module.to(self.device) for _ in range(2)]
+        self.sac = RecurrentSAC(
+            self.actor.module[0].module, critics, gamma=c.optim.gamma, tau=c.optim.tau, alpha=c.optim.alpha,
+            auto_alpha=c.optim.auto_alpha, target_entropy=c.optim.target_entropy, lr=c.optim.lr,
+            caps_kappa_temporal=c.caps.kappa_temporal, caps_kappa_spatial=c.caps.kappa_spatial,
+            caps_sigma_spatial=c.caps.sigma_spatial, caps_batch_size=c.caps.batch_size)
         self.buffer = TensorDictReplayBuffer(storage=LazyTensorStorage(c.buffer.capacity), batch_size=c.buffer.batch_size)
         self.counters = Counters()
         self.fingerprint = resume_fingerprint(c)
@@ -109,10 +104,8 @@ class Trainer:
         """Write everything a resumed run needs, atomically."""
         save_checkpoint(self.checkpoint_path, {
             "config": self.config.to_dict(),
-            "loss": self.loss.state_dict(),
-            "actor_optim": self.actor_optim.state_dict(),
-            "critic_optim": self.critic_optim.state_dict(),
-            "alpha_optim": self.alpha_optim.state_dict() if self.alpha_optim else None,
+            "sac": self.sac.state_dict(),
+            "optimizer": self.sac.optimizer.state_dict(),
             "buffer": buffer_contents(self.buffer),
             "counters": self.counters.__dict__,
             "torch_rng": torch.get_rng_state(),
@@ -120,8 +113,7 @@ class Trainer:
         }, self.fingerprint)
 
     def _load(self) -> None:
-        data = load_checkpoint(self.checkpoint_path, required=("config", "loss", "actor_optim", "critic_optim",
-                                                               "buffer", "counters"))
+        data = load_checkpoint(self.checkpoint_path, required=("config", "sac", "optimizer", "buffer", "counters"))
         # Compare the run's settings as this version reads them: a setting added since the run
         # started takes its default on both sides instead of making every older run unresumable.
         try:
@@ -131,14 +123,8 @@ class Trainer:
         if saved != self.fingerprint:
             raise CheckpointError(f"checkpoint {self.checkpoint_path} was written by a run with other settings "
                                   f"(fingerprint {saved}, this run {self.fingerprint})")
-        self.loss.load_state_dict(data["loss"])
-        self.actor_optim.load_state_dict(data["actor_optim"])
-        self.critic_optim.load_state_dict(data["critic_optim"])
-        if self.alpha_optim is not None:
-            if data.get("alpha_optim") is None:
-                raise CheckpointError(f"checkpoint {self.checkpoint_path} was trained with a fixed temperature: "
-                                      "resume it with --optim.auto_alpha false")
-            self.alpha_optim.load_state_dict(data["alpha_optim"])
+        self.sac.load_state_dict(data["sac"])
+        self.sac.optimizer.load_state_dict(data["optimizer"])
         restore_buffer(self.buffer, data["buffer"])
         self.counters = Counters(**data["counters"])
         torch.set_rng_state(data["torch_rng"])
@@ -174,30 +160,9 @@ class Trainer:
     def _update(self, batch: TensorDictBase) -> None:
         c = self.config
         batch = relabel_goals(batch.to(self.device), c.buffer.relabel_fraction, c.buffer.relabel_spread)
-        losses = self.loss(batch)
-        # CAPS on a random part of the batch: an unbiased estimate of the same means at a quarter
-        # of the cost (the actor's LSTM on three windows per sample is a third of the update).
-        caps_batch = batch[: min(c.caps.batch_size, batch.shape[0])]
-        temporal, spatial = caps_losses(self.actor.module[0].module, caps_batch, c.caps.sigma_spatial)
-        actor_loss = losses["loss_actor"] + c.caps.kappa_temporal * temporal + c.caps.kappa_spatial * spatial
-        # One backward pass: SACLoss detaches the critics inside the actor loss, so each optimiser
-        # sees only its own loss's gradient.
-        total = losses["loss_qvalue"] + actor_loss
-        optimisers = [self.critic_optim, self.actor_optim]
-        if self.alpha_optim is not None:
-            total = total + losses["loss_alpha"]  # computed on detached log-probabilities
-            optimisers.append(self.alpha_optim)
-        for opt in optimisers:
-            opt.zero_grad(set_to_none=True)
-        total.backward()
-        for opt in optimisers:
-            opt.step()
-        self.target_update.step()
+        for key, value in self.sac.update(batch).items():
+            self._losses.setdefault(key, []).append(value)
         self.counters.updates += 1
-        for key, value in (("loss_actor", losses["loss_actor"]), ("loss_qvalue", losses["loss_qvalue"]),
-                           ("caps_temporal", temporal), ("caps_spatial", spatial), ("alpha", losses["alpha"]),
-                           ("entropy", losses["entropy"])):
-            self._losses.setdefault(key, []).append(float(value.detach()))
 
     def _record_episodes(self, data: TensorDictBase) -> None:
         done = data["next", "done"].squeeze(-1)
