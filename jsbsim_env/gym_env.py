@@ -15,7 +15,7 @@ from typing import ClassVar
 import gymnasium as gym
 import numpy as np
 
-from jsbsim_env.task import ACTION_SIZE, OBS_SIZE, AttitudeTask, TaskConfig
+from jsbsim_env.task import ACTION_SIZE, AttitudeTask, TaskConfig
 
 
 class SolarUAVAttitudeGymEnv(gym.Env):
@@ -25,7 +25,8 @@ class SolarUAVAttitudeGymEnv(gym.Env):
 
     def __init__(self, config: TaskConfig | None = None):
         self.task = AttitudeTask(config)
-        self.observation_space = gym.spaces.Box(-np.inf, np.inf, shape=(OBS_SIZE,), dtype=np.float32)
+        self.observation_space = gym.spaces.Box(-np.inf, np.inf, shape=(self.task.config.observation_size,),
+                                                dtype=np.float32)
         self.action_space = gym.spaces.Box(-1.0, 1.0, shape=(ACTION_SIZE,), dtype=np.float32)
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):

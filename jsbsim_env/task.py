@@ -42,6 +42,16 @@ OBS_OFFSET = np.array([10000.0, 0, 0, 0, 0, 0, 10.0, 0, 0, 0, 0, 0, 0.5, 0, 0, 0
 OBS_SCALE = np.array([10000.0, 10 / _DEG, 10 / _DEG, 10 / _DEG, 10 / _DEG, 10 / _DEG, 2.0, 10 / _DEG, 10 / _DEG,
                       30 / _DEG, 30 / _DEG, 20 / _DEG, 0.5, 1, 1, 1, 1, 10 / _DEG, 10 / _DEG, 2.0])
 LAST_ACTION_COLUMNS = slice(N_STATE, N_STATE + ACTION_SIZE)
+GOAL_COLUMNS = slice(-len(GOAL_NAMES), None)  # the goals close every observation layout
+
+# Error integrals (``TaskConfig.error_integral_decay`` > 0), beyond the paper: a decaying integral of
+# the roll, pitch, airspeed and sideslip errors, which gives the policy what a PID's integrators
+# give it. Columns of the scaled observation they integrate: roll, pitch, V_eas, sideslip.
+INTEGRAL_COLUMNS = (1, 2, 6, 8)
+# Scaled integral = gain (1 - d) sum_k d^k (x_t-k - g_t): a steady error of e (scaled units)
+# reads gain x e; the weight column (1 - d) sum_k d^k rises from 1 - d to 1 after a reset.
+INTEGRAL_GAIN = 10.0
+INTEGRAL_SIZE = len(INTEGRAL_COLUMNS) + 1
 # Action -> physical command: command = ACTION_OFFSET + ACTION_SCALE * action.
 ACTION_SCALE = np.array([30.0, 30.0, 20.0, 0.5])
 ACTION_OFFSET = np.array([0.0, 0.0, 0.0, 0.5])
@@ -114,10 +124,58 @@ def reward_from_achieved(achieved, goal):
 
 @dataclass(frozen=True)
 class TaskConfig:
-    """The attitude-tracking task; the flight core's settings are in ``core``."""
+    """The attitude-tracking task; the flight core's settings are in ``core``.
+
+    ``error_integral_decay`` d > 0 adds the error integrals (``ErrorIntegrals``) to the
+    observation, before the goals; 0 keeps the 20 values of the table above.
+    """
 
     core: CoreConfig = field(default_factory=CoreConfig)
     goal_hold_s: tuple[float, float] = (3.0, 10.0)  # each channel holds its goal this long, drawn uniformly
+    error_integral_decay: float = 0.0  # per control step; 0.99 forgets with a time constant of 100 steps
+
+    def __post_init__(self):
+        if not 0.0 <= self.error_integral_decay < 1.0:
+            raise ValueError(f"error_integral_decay must lie in [0, 1), got {self.error_integral_decay}")
+
+    @property
+    def observation_size(self) -> int:
+        return observation_size(self.error_integral_decay)
+
+
+def observation_size(error_integral_decay: float) -> int:
+    """Values in one observation: 20, and 5 more with error integrals."""
+    return OBS_SIZE + (INTEGRAL_SIZE if error_integral_decay > 0.0 else 0)
+
+
+class ErrorIntegrals:
+    """Decaying integrals of the tracking errors of one aircraft, against its present goal.
+
+    With S = sum_k d^k x_t-k of each measured channel and W = sum_k d^k, the integral is
+    S - g_t W: the past measurements against the goal held now. A goal step shifts it at once,
+    and a replayed transition can be given another goal exactly (``training.relabel``), because
+    S and W do not depend on the goal. Sideslip's goal is 0. Works on scaled observations.
+    """
+
+    def __init__(self, decay: float):
+        self.decay = float(decay)
+        self._factor = INTEGRAL_GAIN * (1.0 - self.decay)
+        self.reset()
+
+    def reset(self) -> None:
+        self._sums = [0.0] * len(INTEGRAL_COLUMNS)
+        self._weight = 0.0
+
+    def extend(self, scaled: list[float]) -> list[float]:
+        """Add one scaled observation of the 20-value layout; returns it with the integrals and
+        the weight inserted before the goals."""
+        d = self.decay
+        self._sums = [d * s + scaled[c] for s, c in zip(self._sums, INTEGRAL_COLUMNS)]
+        self._weight = d * self._weight + 1.0
+        goals = scaled[-3:] + [0.0]  # roll, pitch, V_eas goals; sideslip's is 0 (scaled: 0 too)
+        k = self._factor
+        integrals = [k * (s - g * self._weight) for s, g in zip(self._sums, goals)]
+        return scaled[:-3] + integrals + [(1.0 - d) * self._weight] + scaled[-3:]
 
 
 _NO_EXTRA_NOISE = [0.0] * (ACTION_SIZE + len(GOAL_NAMES))  # the last action and the goals are known exactly
@@ -148,6 +206,9 @@ class AttitudeTaskBatch:
         self._act_scale, self._act_offset = ACTION_SCALE.tolist(), ACTION_OFFSET.tolist()
         self._obs_offset = OBS_OFFSET.tolist()
         self._obs_inv_scale = (1.0 / OBS_SCALE).tolist()
+        decay = self.config.error_integral_decay
+        self._integrals = [ErrorIntegrals(decay) for _ in range(n)] if decay > 0.0 else None
+        self._obs_lists: list[list[float]] = [[0.0] * self.config.observation_size for _ in range(n)]
 
     # ------------------------------------------------------------------ episode start
     def reset_one(self, i: int, seed: int | None = None, **overrides) -> np.ndarray:
@@ -166,6 +227,8 @@ class AttitudeTaskBatch:
         self.noise[i] = core.noise.step(core.setup.control_interval_s, core.rng) if self._sensor_noise \
             else [0.0] * N_STATE
         self.steps[i] = 0
+        if self._integrals is not None:
+            self._integrals[i].reset()
         return np.array(self._observation(i), dtype=np.float32)
 
     # ------------------------------------------------------------------ stepping
@@ -227,18 +290,24 @@ class AttitudeTaskBatch:
 
     # ------------------------------------------------------------------ observations
     def _observation(self, i: int) -> list[float]:
-        """Scaled network observation of aircraft ``i`` (measured state, last action, goal), as a list."""
+        """Scaled network observation of aircraft ``i`` (measured state, last action, error integrals
+        where configured, goal), as a list; once per control step (it advances the integrals)."""
         raw = self.states[i] + self.last_actions[i] + self._goal_lists[i]
         noise = self.noise[i] + _NO_EXTRA_NOISE
-        return [(x + n - o) * k for x, n, o, k in zip(raw, noise, self._obs_offset, self._obs_inv_scale)]
+        obs = [(x + n - o) * k for x, n, o, k in zip(raw, noise, self._obs_offset, self._obs_inv_scale)]
+        if self._integrals is not None:
+            obs = self._integrals[i].extend(obs)
+        self._obs_lists[i] = obs
+        return obs
 
     def measurements(self) -> np.ndarray:
         """Measured states (true state plus sensor noise), N x 13."""
         return np.array(self.states) + np.array(self.noise)
 
     def observations(self) -> np.ndarray:
-        """Scaled network observations, N x 20 float32 (non-finite values of an ended episode as 0)."""
-        return np.nan_to_num(np.array([self._observation(i) for i in range(self.num_envs)], dtype=np.float32))
+        """The latest scaled network observations, N x ``config.observation_size`` float32
+        (non-finite values of an ended episode as 0)."""
+        return np.nan_to_num(np.array(self._obs_lists, dtype=np.float32))
 
 
 class AttitudeTask:

@@ -14,7 +14,7 @@ from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import Compose, EnvBase, RewardSum, StepCounter, TransformedEnv
 from torchrl.envs.transforms import CatFrames, UnsqueezeTransform
 
-from jsbsim_env.task import ACHIEVED_INDEX, ACTION_SIZE, OBS_SIZE, REWARD_TERMS, AttitudeTaskBatch, TaskConfig
+from jsbsim_env.task import ACHIEVED_INDEX, ACTION_SIZE, REWARD_TERMS, AttitudeTaskBatch, TaskConfig
 
 OBSERVATION_WINDOW = 8  # SPEC section 3: the policy sees the last 8 observations
 
@@ -27,7 +27,7 @@ def episode_seed(base_seed: int, env_index: int, episode: int) -> int:
 class SolarUAVAttitudeEnv(EnvBase):
     """Attitude tracking for the solar UAV, ``num_envs`` aircraft stepped together.
 
-    Keys: ``observation`` (num_envs, 20) float32, ``action`` (num_envs, 4) in [-1, 1],
+    Keys: ``observation`` (num_envs, 20, or ``config.observation_size``) float32, ``action`` (num_envs, 4) in [-1, 1],
     ``reward`` (num_envs, 1), ``done``/``terminated``/``truncated`` (num_envs, 1), and
     ``reward_terms`` (num_envs, 4): the penalties of ``task.REWARD_TERMS``, with
     ``reward = 1 - reward_terms.sum(-1)``, and ``achieved`` (num_envs, 4): the true roll, pitch
@@ -42,11 +42,12 @@ class SolarUAVAttitudeEnv(EnvBase):
         super().__init__(device="cpu", batch_size=torch.Size([num_envs]))
         self.num_envs = num_envs
         self.batch = AttitudeTaskBatch(num_envs, config)
+        obs_size = self.batch.config.observation_size
         self._episodes = np.zeros(num_envs, dtype=np.int64)
         self._base_seed = int(seed)
         n = (num_envs,)
         self.observation_spec = Composite(
-            observation=Unbounded(shape=(*n, OBS_SIZE), dtype=torch.float32),
+            observation=Unbounded(shape=(*n, obs_size), dtype=torch.float32),
             reward_terms=Unbounded(shape=(*n, len(REWARD_TERMS)), dtype=torch.float32),
             achieved=Unbounded(shape=(*n, len(ACHIEVED_INDEX)), dtype=torch.float32),
             shape=n,
@@ -59,7 +60,7 @@ class SolarUAVAttitudeEnv(EnvBase):
             truncated=Categorical(2, shape=(*n, 1), dtype=torch.bool),
             shape=n,
         )
-        self._obs = np.zeros((num_envs, OBS_SIZE), dtype=np.float32)
+        self._obs = np.zeros((num_envs, obs_size), dtype=np.float32)
         self._terms = np.zeros((num_envs, len(REWARD_TERMS)), dtype=np.float32)
         self._achieved = np.zeros((num_envs, len(ACHIEVED_INDEX)), dtype=np.float32)
         self.last_codes = np.zeros(num_envs, dtype=np.int64)  # core.TERMINATION_CAUSES of the last step

@@ -134,12 +134,20 @@ def test_ship_policy_needs_the_runs_first_command_and_commit(policy_file, tmp_pa
     assert [p.stat().st_mtime_ns for p in sorted(Path(script).parents[1].glob("training/shipped/*"))] == shipped
 
 
-def test_runtime_builds_the_environments_observation(policy_file):
-    """Flying from measurements (with its own last action) gives the same actions as flying from
-    the environment's observations."""
+@pytest.mark.parametrize("decay", [0.0, 0.99])
+def test_runtime_builds_the_environments_observation(policy_file, tmp_path, decay):
+    """Flying from measurements (with its own last action, and error integrals where the policy has
+    them) gives the same actions as flying from the environment's observations."""
     path, _ = policy_file
+    if decay > 0.0:
+        c = TrainConfig(seed=2)
+        c.env.num_envs, c.buffer.capacity, c.log.progress = 1, 10, False
+        c.env.error_integral_decay = decay
+        path = tmp_path / "policy.pt"
+        Trainer(c, tmp_path / "run").save_policy(path, {"return_norm": 0.0})
     from_env, from_measurement = PolicyRuntime(path, backend="torch"), PolicyRuntime(path, backend="torch")
-    task = AttitudeTask(TaskConfig())
+    task = AttitudeTask(TaskConfig(error_integral_decay=decay))
+    assert from_env.observation_size == task.config.observation_size
     obs, _ = task.reset(4)
     for _ in range(20):
         a_env = from_env.act_scaled(obs)

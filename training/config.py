@@ -26,6 +26,8 @@ class EnvSettings:
     num_envs: int = _f(8, "aircraft simulated side by side in one process")
     window: int = _f(8, "observation window the networks see (SPEC: 8)")
     disturbances: bool = _f(True, "delay, noise, random interval, randomisation and turbulence (SPEC training setting)")
+    error_integral_decay: float = _f(0.0, "per-step decay of the error integrals added to the observation "
+                                          "(jsbsim_env.task.ErrorIntegrals; 0: none, as the paper)")
 
 
 @dataclass

@@ -65,17 +65,17 @@ class CriticNet(nn.Module):
 
 
 def make_actor(lstm_hidden: int = 64, mlp_hidden: int = 256, action_spec=None,
-               initial_std: float = 1.0) -> ProbabilisticActor:
+               initial_std: float = 1.0, obs_size: int = OBS_SIZE) -> ProbabilisticActor:
     """The SAC actor: ``observation`` -> ``action`` (in [-1, 1]) with ``loc``/``scale``."""
-    module = TensorDictModule(ActorNet(lstm_hidden, mlp_hidden, initial_std=initial_std), in_keys=["observation"],
-                              out_keys=["loc", "scale"])
+    module = TensorDictModule(ActorNet(lstm_hidden, mlp_hidden, obs_size=obs_size, initial_std=initial_std),
+                              in_keys=["observation"], out_keys=["loc", "scale"])
     return ProbabilisticActor(
         module, in_keys=["loc", "scale"], spec=action_spec, distribution_class=TanhNormal,
         distribution_kwargs={"low": -1.0, "high": 1.0}, return_log_prob=False,
     )
 
 
-def make_critic(lstm_hidden: int = 64, mlp_hidden: int = 256) -> TensorDictModule:
+def make_critic(lstm_hidden: int = 64, mlp_hidden: int = 256, obs_size: int = OBS_SIZE) -> TensorDictModule:
     """One Q network: (``observation``, ``action``) -> ``state_action_value``."""
-    return TensorDictModule(CriticNet(lstm_hidden, mlp_hidden), in_keys=["observation", "action"],
+    return TensorDictModule(CriticNet(lstm_hidden, mlp_hidden, obs_size=obs_size), in_keys=["observation", "action"],
                             out_keys=["state_action_value"])

@@ -18,7 +18,13 @@ import numpy as np
 import torch
 from torch import nn
 
-from jsbsim_env.task import OBS_SIZE, action_to_command, initial_last_action, scale_observation
+from jsbsim_env.task import (
+    ErrorIntegrals,
+    action_to_command,
+    initial_last_action,
+    observation_size,
+    scale_observation,
+)
 from training.networks import ActorNet
 
 SHIPPED_POLICY = "solar_uav_policy.pt"  # in the training package, with its ONNX export beside it
@@ -35,7 +41,7 @@ def shipped_policy_path() -> Path:
 
 
 class DeterministicActor(nn.Module):
-    """Observation window (..., window, 20) -> action in [-1, 1]^4: tanh of the Gaussian's mean."""
+    """Observation window (..., window, observation size) -> action in [-1, 1]^4: tanh of the Gaussian's mean."""
 
     def __init__(self, net: ActorNet):
         super().__init__()
@@ -47,18 +53,21 @@ class DeterministicActor(nn.Module):
 
 
 def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
-    """The deterministic actor and the metadata saved with it (``Trainer.save_policy``)."""
+    """The deterministic actor and the metadata saved with it (``Trainer.save_policy``); the metadata's
+    ``error_integral_decay`` (0 for files from before the error integrals) sets the observation layout."""
     path = Path(path)
     try:
         data = torch.load(path, map_location="cpu", weights_only=False)
-        net = ActorNet(data["network"]["lstm_hidden"], data["network"]["mlp_hidden"],
-                       initial_std=data["network"].get("initial_std", 1.0))
+        decay = float(data.get("error_integral_decay", 0.0))
+        expected = observation_size(decay)
         prefix = "module.0.module."
         state = {k[len(prefix):]: v for k, v in data["actor"].items() if k.startswith(prefix)}
         inputs = state["encoder.lstm.weight_ih_l0"].shape[1]
-        if inputs != OBS_SIZE:
-            raise PolicyFileError(f"{path} was trained on observations of {inputs} values and this version observes "
-                                  f"{OBS_SIZE} (the last action was added); train a new policy")
+        if inputs != expected:
+            raise PolicyFileError(f"{path} was trained on observations of {inputs} values, and its settings give "
+                                  f"{expected} in this version (the last action was added); train a new policy")
+        net = ActorNet(data["network"]["lstm_hidden"], data["network"]["mlp_hidden"], obs_size=inputs,
+                       initial_std=data["network"].get("initial_std", 1.0))
         net.load_state_dict(state)
     except PolicyFileError:
         raise
@@ -66,6 +75,7 @@ def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
         raise PolicyFileError(f"{path} is not a usable policy file: {err}") from err
     actor = DeterministicActor(net).eval()
     meta = {k: v for k, v in data.items() if k != "actor"}
+    meta["error_integral_decay"] = decay
     return actor, meta
 
 
@@ -91,7 +101,7 @@ def export_onnx(actor: DeterministicActor, path: Path | str, window: int = 8, so
     import onnx
 
     path = Path(path)
-    example = torch.zeros(1, window, OBS_SIZE)
+    example = torch.zeros(1, window, actor.net.encoder.lstm.input_size)
     handle, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
     os.close(handle)
     try:
@@ -125,8 +135,11 @@ class PolicyRuntime:
         self.actor, self.meta = load_policy(path)
         self.window = int(self.meta.get("window", 8))
         self.backend = backend
+        decay = self.meta["error_integral_decay"]
+        self.observation_size = observation_size(decay)
+        self._integrals = ErrorIntegrals(decay) if decay > 0.0 else None
         # The window, oldest row first, shifted in place each step; empty until the episode's first push.
-        self._window = np.zeros((self.window, OBS_SIZE), dtype=np.float32)
+        self._window = np.zeros((self.window, self.observation_size), dtype=np.float32)
         self._filled = False
         self._last_action: np.ndarray | None = None  # fed back into the next observation
         if backend == "onnx":
@@ -155,13 +168,15 @@ class PolicyRuntime:
             return export_onnx(self.actor, Path(self._export_dir.name) / onnx_path.name, self.window, digest)
 
     def reset(self) -> None:
-        """Forget the window and the last action (a new episode)."""
+        """Forget the window, the last action and the error integrals (a new episode)."""
         self._filled = False
         self._last_action: np.ndarray | None = None
+        if self._integrals is not None:
+            self._integrals.reset()
 
     def push(self, observation: np.ndarray) -> np.ndarray:
-        """Add one scaled observation; returns the window (window, 20), oldest first."""
-        return self._push(_as_frame(observation)).copy()
+        """Add one scaled observation; returns the window (window, observation size), oldest first."""
+        return self._push(self._as_frame(observation)).copy()
 
     def _push(self, obs: np.ndarray) -> np.ndarray:
         """``push`` without the copy: the runtime's own window, valid until the next push."""
@@ -187,6 +202,8 @@ class PolicyRuntime:
         if self._last_action is None:
             self._last_action = initial_last_action(measurement)
         obs = scale_observation(np.asarray(measurement), self._last_action, np.asarray(goal))
+        if self._integrals is not None:
+            obs = np.asarray(self._integrals.extend(obs.tolist()), dtype=np.float32)
         # ufuncs directly: np.clip's wrapper alone costs about 10 us a call
         self._last_action = np.minimum(np.maximum(self.action(self._push(obs)).astype(np.float64), -1.0), 1.0)
         return action_to_command(self._last_action)
@@ -197,13 +214,13 @@ class PolicyRuntime:
         return self.act(measurement, setpoint)
 
     def act_scaled(self, observation: np.ndarray) -> np.ndarray:
-        """Action in [-1, 1]^4 for an already scaled observation (as the environments give)."""
-        return self.action(self._push(_as_frame(observation)))
+        """Action in [-1, 1]^4 for an already scaled observation (as the environments give, error
+        integrals included where the policy has them)."""
+        return self.action(self._push(self._as_frame(observation)))
 
-
-def _as_frame(observation: np.ndarray) -> np.ndarray:
-    """One scaled observation as a window row (float32, 20 values)."""
-    return np.asarray(observation, dtype=np.float32).reshape(OBS_SIZE)
+    def _as_frame(self, observation: np.ndarray) -> np.ndarray:
+        """One scaled observation as a window row (float32, ``observation_size`` values)."""
+        return np.asarray(observation, dtype=np.float32).reshape(self.observation_size)
 
 
 __all__ = ["DeterministicActor", "PolicyFileError", "PolicyRuntime", "export_onnx", "load_policy",

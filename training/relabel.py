@@ -11,8 +11,10 @@ state actually reached puts those samples where the reward has a slope.
 
 For a relabelled sample the goal columns of every frame of both observation windows are
 replaced by the new goal (held over the window), and the reward is recomputed from the
-transition's ``achieved`` state (``task.reward_from_achieved``). Terminated transitions keep
-their goal: their reward is the episode's last and their state may not be finite.
+transition's ``achieved`` state (``task.reward_from_achieved``). Where the observation carries
+error integrals (``task.ErrorIntegrals``), they are moved to the new goal too, exactly: an
+integral is S - g W with S and W independent of the goal, so it changes by (g - g') W. Terminated
+transitions keep their goal: their reward is the episode's last and their state may not be finite.
 """
 
 from __future__ import annotations
@@ -20,9 +22,23 @@ from __future__ import annotations
 import torch
 from tensordict import TensorDictBase
 
-from jsbsim_env.task import GOAL_HIGH, GOAL_LOW, OBS_OFFSET, OBS_SCALE, PENALTY_SATURATION, reward_from_achieved
+from jsbsim_env.task import (
+    GOAL_COLUMNS,
+    GOAL_HIGH,
+    GOAL_LOW,
+    INTEGRAL_GAIN,
+    INTEGRAL_SIZE,
+    OBS_OFFSET,
+    OBS_SCALE,
+    OBS_SIZE,
+    PENALTY_SATURATION,
+    reward_from_achieved,
+)
 
-_GOAL_COLUMNS = slice(-3, None)  # the goals are the observation's last three elements
+_GOAL_COLUMNS = GOAL_COLUMNS  # the goals are the observation's last three elements
+# With error integrals: roll, pitch, V_eas and sideslip integrals, then the weight, before the goals.
+_INTEGRAL_COLUMNS = slice(OBS_SIZE - 3, OBS_SIZE - 3 + INTEGRAL_SIZE - 2)  # those of the three goals
+_WEIGHT_COLUMN = OBS_SIZE - 3 + INTEGRAL_SIZE - 1
 _GOAL_OFFSET = torch.tensor(OBS_OFFSET[_GOAL_COLUMNS], dtype=torch.float32)
 _GOAL_SCALE = torch.tensor(OBS_SCALE[_GOAL_COLUMNS], dtype=torch.float32)
 _GOAL_LOW = torch.tensor(GOAL_LOW, dtype=torch.float32)
@@ -36,7 +52,7 @@ def relabel_goals(batch: TensorDictBase, fraction: float, spread: float,
 
     Args:
         batch: replay samples with ``observation`` and ``("next", "observation")`` windows
-            (B, window, 20), ``("next", "achieved")`` (B, 4), ``("next", "reward")`` (B, 1) and
+            (B, window, observation size), ``("next", "achieved")`` (B, 4), ``("next", "reward")`` (B, 1) and
             ``("next", "terminated")`` (B, 1).
         fraction: share of the samples to relabel, in [0, 1].
         spread: new goal = achieved state + an offset drawn uniformly within +- ``spread`` times
@@ -60,7 +76,12 @@ def relabel_goals(batch: TensorDictBase, fraction: float, spread: float,
                          _GOAL_HIGH.to(device))
     scaled = ((goal - _GOAL_OFFSET.to(device)) / _GOAL_SCALE.to(device)).unsqueeze(-2)
     out = batch.clone()
+    with_integrals = out["observation"].shape[-1] == OBS_SIZE + INTEGRAL_SIZE
     for key in ("observation", ("next", "observation")):
-        out[key][index, :, _GOAL_COLUMNS] = scaled.to(out[key].dtype)
+        obs = out[key]
+        if with_integrals:
+            shift = (obs[index, :, _GOAL_COLUMNS] - scaled.to(obs.dtype)) * obs[index, :, _WEIGHT_COLUMN, None]
+            obs[index, :, _INTEGRAL_COLUMNS] += INTEGRAL_GAIN * shift
+        obs[index, :, _GOAL_COLUMNS] = scaled.to(obs.dtype)
     out["next", "reward"][index] = reward_from_achieved(achieved, goal).unsqueeze(-1).to(out["next", "reward"].dtype)
     return out

@@ -74,11 +74,13 @@ class Trainer:
         torch.manual_seed(c.seed)
         self.device = torch.device(c.device)
         core = CoreConfig() if c.env.disturbances else CoreConfig.ideal()
-        self.task_config = TaskConfig(core=core)
+        self.task_config = TaskConfig(core=core, error_integral_decay=c.env.error_integral_decay)
         self.env = make_env(c.env.num_envs, self.task_config, seed=c.seed, window=c.env.window)
+        obs_size = self.task_config.observation_size
         self.actor = make_actor(c.network.lstm_hidden, c.network.mlp_hidden, self.env.action_spec,
-                                c.network.initial_std).to(self.device)
-        critics = [make_critic(c.network.lstm_hidden, c.network.mlp_hidden).module.to(self.device) for _ in range(2)]
+                                c.network.initial_std, obs_size=obs_size).to(self.device)
+        critics = [make_critic(c.network.lstm_hidden, c.network.mlp_hidden, obs_size=obs_size).module.to(self.device)
+                   for _ in range(2)]
         self.sac = RecurrentSAC(
             self.actor.module[0].module, critics, gamma=c.optim.gamma, tau=c.optim.tau, alpha=c.optim.alpha,
             auto_alpha=c.optim.auto_alpha, target_entropy=c.optim.target_entropy, lr=c.optim.lr,
@@ -151,6 +153,7 @@ class Trainer:
             "actor": self.actor.state_dict(),
             "network": self.config.network.__dict__,
             "window": self.config.env.window,
+            "error_integral_decay": self.config.env.error_integral_decay,
             "frames": self.counters.frames,
             "seed": self.config.seed,
             "evaluation": evaluation,
