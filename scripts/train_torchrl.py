@@ -14,7 +14,7 @@ import sys
 import time
 from pathlib import Path
 
-from training.config import TrainConfig
+from training.config import PRESETS, TrainConfig
 from training.provenance import append_session
 from training.runtime import tune_allocator
 from training.trainer import Trainer
@@ -26,15 +26,20 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--resume", type=Path, metavar="RUN_DIR", help="continue the run in this folder")
     parser.add_argument("--run-name", help="folder name under --log.run_root (default: seed and time)")
+    parser.add_argument("--preset", choices=PRESETS, default="default",
+                        help="starting configuration the other options change: this package's, or the paper's "
+                             "(SPEC section 3; default: default)")
     TrainConfig.add_arguments(parser)
     args = parser.parse_args(argv)
     tune_allocator()
+    if args.resume and args.preset != "default":
+        parser.error("--preset starts a new run; a resumed run keeps the settings it was started with")
     if args.resume:
         saved = TrainConfig.from_dict(json.loads((args.resume / "config.json").read_text()))
         config = TrainConfig.from_namespace(args, base=saved)
         run_dir = args.resume
     else:
-        config = TrainConfig.from_namespace(args)
+        config = TrainConfig.from_namespace(args, base=TrainConfig.preset(args.preset))
         name = args.run_name or f"sac_seed{config.seed}_{time.strftime('%Y%m%d-%H%M%S')}"
         run_dir = Path(config.log.run_root) / name
     trainer = Trainer(config, run_dir, resume=args.resume is not None)

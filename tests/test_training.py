@@ -174,3 +174,13 @@ def test_training_summary_finds_the_steps_to_90_percent_of_the_final_return(tmp_
         script.run_summary(tmp_path, final_evals=0)
     assert summary["wall_h"] == pytest.approx(6_000 / 3600) and summary["updates"] == 55_000
     assert summary["best_eval_return"] == 1.0 and summary["best_eval_frames"] == 50_000
+
+
+def test_the_paper_preset_is_spec_section_3():
+    paper = TrainConfig.preset("paper")
+    assert not paper.optim.auto_alpha and paper.optim.alpha == 0.2 and paper.optim.updates_per_step == 1.0
+    assert paper.buffer.relabel_fraction == 0.0 and paper.env.error_integral_decay == 0.0
+    assert (paper.optim.lr, paper.optim.gamma, paper.optim.tau, paper.buffer.batch_size) == (3e-4, 0.99, 0.005, 256)
+    assert (paper.caps.kappa_spatial, paper.caps.kappa_temporal, paper.network.lstm_hidden) == (2.0, 1.0, 64)
+    with pytest.raises(ValueError, match="unknown preset"):
+        TrainConfig.preset("fast")

@@ -13,6 +13,8 @@ import json
 from dataclasses import dataclass, field, fields
 from typing import Any, get_type_hints
 
+PRESETS = ("default", "paper")
+
 
 def _f(default, help: str):
     """A dataclass field with a help line."""
@@ -100,6 +102,23 @@ class TrainConfig:
     network: NetworkSettings = field(default_factory=NetworkSettings)
     caps: CapsSettings = field(default_factory=CapsSettings)
     log: LogSettings = field(default_factory=LogSettings)
+
+    @classmethod
+    def preset(cls, name: str) -> TrainConfig:
+        """A named starting configuration: ``"default"`` (this package's) or ``"paper"`` (SPEC
+        section 3 as far as this environment allows: a fixed temperature of 0.2, one gradient step
+        per environment step, no goal relabelling, no error integrals; the observation keeps the
+        last action, without which nothing learned, README)."""
+        config = cls()
+        if name == "paper":
+            config.optim.auto_alpha = False
+            config.optim.alpha = 0.2
+            config.optim.updates_per_step = 1.0
+            config.buffer.relabel_fraction = 0.0
+            config.env.error_integral_decay = 0.0
+        elif name != "default":
+            raise ValueError(f"unknown preset {name!r}: use one of {PRESETS}")
+        return config
 
     # ------------------------------------------------------------------ (de)serialisation
     def to_dict(self) -> dict[str, Any]:
