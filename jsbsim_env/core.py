@@ -325,6 +325,21 @@ class FlightCore:
         for s, v in zip(self._set_gust_rate, self._gust_rate[k]):
             s(gain * v)
 
+    def episode_conditions(self) -> list[float]:
+        """What a simulation knows and a flight computer does not, scaled to about 1: the delay and
+        control interval (s / 0.1 and s / 0.05), the coefficient scales ((s - 1) / 0.2, in
+        ``SCALED_TERMS`` order) and the turbulence now (winds / 2 m/s, rates / 1 deg/s, body axes).
+        For critics that learn in simulation only (``task.AttitudeTaskBatch.critic_states``)."""
+        setup = self.setup
+        out = [setup.delay_s / 0.1, setup.control_interval_s / 0.05]
+        out += [(setup.scales.get(term, 1.0) - 1.0) / 0.2 for term in SCALED_TERMS]
+        if self.turbulence is None:
+            return out + [0.0] * 6
+        k = min(self.step_index, len(self._gust_wind) - 1)
+        gain = self.turbulence_gain
+        return (out + [gain * w / 2.0 for w in self._gust_wind[k]]
+                + [gain * r / DEG_TO_RAD for r in self._gust_rate[k]])
+
     # ------------------------------------------------------------------ measurements
     def true_state(self) -> list[float]:
         """The state of SPEC Eq. 18 without noise (see ``STATE_NAMES``) as a list."""

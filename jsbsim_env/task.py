@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from jsbsim_env.core import N_STATE, CoreConfig, FlightCore, envelope_code, termination_reason
+from jsbsim_env.core import N_STATE, SCALED_TERMS, CoreConfig, FlightCore, envelope_code, termination_reason
 
 GOAL_NAMES = ("roll_cmd_rad", "pitch_cmd_rad", "airspeed_eas_cmd_mps")
 GOAL_LOW = np.array([math.radians(-5.0), math.radians(-10.0), 8.0])
@@ -52,6 +52,15 @@ INTEGRAL_COLUMNS = (1, 2, 6, 8)
 # reads gain x e; the weight column (1 - d) sum_k d^k rises from 1 - d to 1 after a reset.
 INTEGRAL_GAIN = 10.0
 INTEGRAL_SIZE = len(INTEGRAL_COLUMNS) + 1
+
+# The critics' state (``AttitudeTaskBatch.critic_states``), beyond the paper: what makes the task
+# Markov for a critic without memory, known in simulation only. The true state (scaled as the
+# observation, no noise), the last RECENT_ACTIONS actions (newest first: with at most 120 ms of
+# delay and at least 40 ms per step, every command still in the delay line), the flight core's
+# ``episode_conditions`` (delay, interval, coefficient scales, turbulence), then, as in the
+# observation, the error integrals where configured and the goals last.
+RECENT_ACTIONS = 3
+CRITIC_STATE_BASE = N_STATE + RECENT_ACTIONS * ACTION_SIZE + 2 + len(SCALED_TERMS) + 6 + len(GOAL_NAMES)
 # Action -> physical command: command = ACTION_OFFSET + ACTION_SCALE * action.
 ACTION_SCALE = np.array([30.0, 30.0, 20.0, 0.5])
 ACTION_OFFSET = np.array([0.0, 0.0, 0.0, 0.5])
@@ -142,6 +151,10 @@ class TaskConfig:
     def observation_size(self) -> int:
         return observation_size(self.error_integral_decay)
 
+    @property
+    def critic_state_size(self) -> int:
+        return CRITIC_STATE_BASE + (INTEGRAL_SIZE if self.error_integral_decay > 0.0 else 0)
+
 
 def observation_size(error_integral_decay: float) -> int:
     """Values in one observation: 20, and 5 more with error integrals."""
@@ -209,6 +222,7 @@ class AttitudeTaskBatch:
         decay = self.config.error_integral_decay
         self._integrals = [ErrorIntegrals(decay) for _ in range(n)] if decay > 0.0 else None
         self._obs_lists: list[list[float]] = [[0.0] * self.config.observation_size for _ in range(n)]
+        self._recent_actions: list[list[float]] = [[0.0] * (RECENT_ACTIONS * ACTION_SIZE) for _ in range(n)]
 
     # ------------------------------------------------------------------ episode start
     def reset_one(self, i: int, seed: int | None = None, **overrides) -> np.ndarray:
@@ -217,6 +231,7 @@ class AttitudeTaskBatch:
         core.reset(seed, **overrides)
         self.states[i] = core.last_true_state = core.true_state()
         self.last_actions[i] = initial_last_action(self.states[i]).tolist()
+        self._recent_actions[i] = self.last_actions[i] * RECENT_ACTIONS  # the trim command, pending or not
         self.interval_s[i] = core.setup.control_interval_s
         # Goals draw from their own stream of the episode's seed.
         self._goal_rngs[i] = grng = np.random.default_rng(core.rng.integers(2**63))
@@ -250,6 +265,7 @@ class AttitudeTaskBatch:
         self.steps += 1
         for i, (core, a) in enumerate(zip(self.cores, rows)):
             a = self.last_actions[i] = [min(max(x, -1.0), 1.0) for x in a]
+            self._recent_actions[i] = a + self._recent_actions[i][:-ACTION_SIZE]
             core.fly([o + k * x for x, k, o in zip(a, self._act_scale, self._act_offset)])
             self.states[i] = state = core.last_true_state = core.true_state()
             code = codes[i] = envelope_code(state, core.height_above_ground_m(), envelope)
@@ -299,6 +315,18 @@ class AttitudeTaskBatch:
             obs = self._integrals[i].extend(obs)
         self._obs_lists[i] = obs
         return obs
+
+    def critic_states(self) -> np.ndarray:
+        """The critics' states (see ``CRITIC_STATE_BASE``), N x ``config.critic_state_size`` float32
+        (non-finite values of an ended episode as 0)."""
+        rows = []
+        offset, inv_scale = self._obs_offset, self._obs_inv_scale
+        for i, core in enumerate(self.cores):
+            true = [(x - o) * k for x, o, k in zip(self.states[i], offset, inv_scale)]
+            obs = self._obs_lists[i]
+            tail = obs[OBS_SIZE - 3:] if self._integrals is not None else obs[-3:]  # integrals and goals
+            rows.append(true + self._recent_actions[i] + core.episode_conditions() + tail)
+        return np.nan_to_num(np.array(rows, dtype=np.float32))
 
     def measurements(self) -> np.ndarray:
         """Measured states (true state plus sensor noise), N x 13."""

@@ -29,7 +29,9 @@ class SolarUAVAttitudeEnv(EnvBase):
 
     Keys: ``observation`` (num_envs, 20, or ``config.observation_size``) float32, ``action`` (num_envs, 4) in [-1, 1],
     ``reward`` (num_envs, 1), ``done``/``terminated``/``truncated`` (num_envs, 1), and
-    ``reward_terms`` (num_envs, 4): the penalties of ``task.REWARD_TERMS``, with
+    ``state`` (num_envs, ``config.critic_state_size``): the critics' state, known in simulation only
+    (``task.AttitudeTaskBatch.critic_states``), ``reward_terms`` (num_envs, 4): the penalties of
+    ``task.REWARD_TERMS``, with
     ``reward = 1 - reward_terms.sum(-1)``, and ``achieved`` (num_envs, 4): the true roll, pitch
     (rad), V_eas (m/s) and sideslip (rad) the reward was computed from (``task.ACHIEVED_INDEX``),
     which lets a learner recompute the reward for another goal.
@@ -48,6 +50,7 @@ class SolarUAVAttitudeEnv(EnvBase):
         n = (num_envs,)
         self.observation_spec = Composite(
             observation=Unbounded(shape=(*n, obs_size), dtype=torch.float32),
+            state=Unbounded(shape=(*n, self.batch.config.critic_state_size), dtype=torch.float32),
             reward_terms=Unbounded(shape=(*n, len(REWARD_TERMS)), dtype=torch.float32),
             achieved=Unbounded(shape=(*n, len(ACHIEVED_INDEX)), dtype=torch.float32),
             shape=n,
@@ -100,7 +103,8 @@ class SolarUAVAttitudeEnv(EnvBase):
         # Fresh CPU tensors of the spec's shapes and dtypes: the unchecked constructor is safe here
         # and saves a third of TorchRL's per-step overhead; on the env's device, TorchRL skips a copy.
         return TensorDict._new_unsafe(
-            {"observation": torch.from_numpy(self._obs.copy()), "reward_terms": torch.from_numpy(self._terms.copy()),
+            {"observation": torch.from_numpy(self._obs.copy()), "state": torch.from_numpy(self.batch.critic_states()),
+             "reward_terms": torch.from_numpy(self._terms.copy()),
              "achieved": torch.from_numpy(self._achieved.copy()),
              "reward": torch.from_numpy(np.asarray(rewards, dtype=np.float32)).reshape(n, 1),
              "terminated": terminated_t, "truncated": truncated_t, "done": terminated_t | truncated_t},

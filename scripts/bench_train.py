@@ -17,13 +17,14 @@ import tempfile
 import time
 
 import torch
+from tensordict.nn import TensorDictModule
 from torchrl.envs.utils import RandomPolicy
 
 from training.config import TrainConfig
-from training.networks import make_critic
+from training.networks import StateCriticNet, make_critic
 from training.runtime import tune_allocator
 from training.sac_reference import SACLossReference
-from training.trainer import STORED_KEYS, Trainer
+from training.trainer import Trainer
 
 
 def main() -> None:
@@ -31,11 +32,14 @@ def main() -> None:
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--threads", type=int, default=1, help="torch threads (default: 1, as training)")
     parser.add_argument("--updates", type=int, default=30)
+    parser.add_argument("--critic", choices=("recurrent", "state"), default="recurrent",
+                        help="the critics' input (network.critic; default: recurrent)")
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
     tune_allocator()
     config = TrainConfig(device=args.device, threads=args.threads)
+    config.network.critic = args.critic
     config.buffer.capacity = 20_000
     config.log.progress = False
     with tempfile.TemporaryDirectory() as tmp:
@@ -49,11 +53,16 @@ def main() -> None:
             with torch.no_grad():
                 data = env.rollout(125, trainer.actor, break_when_any_done=False)
             collect_rates.append(data.numel() / (time.perf_counter() - t0))
-        trainer.buffer.extend(data.reshape(-1).select(*STORED_KEYS))
+        trainer.buffer.extend(data.reshape(-1).select(*trainer.stored_keys))
         random = env.rollout(250, RandomPolicy(env.action_spec), break_when_any_done=False)
-        trainer.buffer.extend(random.reshape(-1).select(*STORED_KEYS))
+        trainer.buffer.extend(random.reshape(-1).select(*trainer.stored_keys))
+        if args.critic == "state":
+            critic = TensorDictModule(StateCriticNet(trainer.task_config.critic_state_size, config.network.mlp_hidden),
+                                      in_keys=["state", "action"], out_keys=["state_action_value"])
+        else:
+            critic = make_critic(config.network.lstm_hidden, config.network.mlp_hidden)
         reference = SACLossReference(
-            trainer.actor, make_critic(config.network.lstm_hidden, config.network.mlp_hidden), env.action_spec,
+            trainer.actor, critic, env.action_spec,
             gamma=config.optim.gamma, tau=config.optim.tau, alpha=config.optim.alpha,
             auto_alpha=config.optim.auto_alpha, target_entropy=config.optim.target_entropy, lr=config.optim.lr,
             caps_kappa_temporal=config.caps.kappa_temporal, caps_kappa_spatial=config.caps.kappa_spatial,
@@ -78,6 +87,7 @@ def main() -> None:
             reference_ms.append(time_updates(lambda b: reference.update(b.to(trainer.device))))
     result = {
         "device": args.device, "threads": torch.get_num_threads(), "num_envs": config.env.num_envs,
+        "critic": args.critic,
         "batch_size": config.buffer.batch_size,
         "update_ms": statistics.median(update_ms),
         "reference_update_ms": statistics.median(reference_ms),

@@ -66,10 +66,21 @@ def test_relabelling_moves_them_to_the_new_goal_exactly():
     batch = TensorDict({"observation": windows[:-1], "next": {
         "observation": windows[1:], "reward": torch.zeros(n, 1), "terminated": torch.zeros(n, 1, dtype=torch.bool),
         "achieved": torch.zeros(n, 4)}}, batch_size=[n])
-    out = relabel_goals(batch, 1.0, 2.0, generator=torch.Generator().manual_seed(1))
+    out = relabel_goals(batch, 1.0, 2.0, generator=torch.Generator().manual_seed(1), error_integrals=True)
     for i in range(n):
         goals = out["observation"][i, -1, -3:].tolist()  # roll, pitch, V_eas goals drawn for it (scaled)
         assert goals[0] != pytest.approx(0.1)
         held = ErrorIntegrals(DECAY)
         expected = [held.extend(_scaled(r, 0.0)[:-3] + goals) for r in rolls][i:i + 8]
         np.testing.assert_allclose(out["observation"][i].numpy(), np.array(expected), atol=1e-5)
+
+
+def test_the_critics_state_ends_as_the_observation_and_is_relabelled_with_it(rollout):
+    """The critics' state carries the same integrals and goals as the newest frame of the
+    observation, before and after relabelling."""
+    tail = slice(OBS_SIZE - 3, None)
+    for td in (rollout, relabel_goals(rollout, 1.0, 2.0, generator=torch.Generator().manual_seed(2),
+                                      error_integrals=True)):
+        for key in ("observation", ("next", "observation")):
+            state_key = "state" if key == "observation" else ("next", "state")
+            torch.testing.assert_close(td[state_key][:, -8:], td[key][:, -1, tail])

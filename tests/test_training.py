@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 import torch
 
+from jsbsim_env.task import TaskConfig
 from training.checkpoint import CheckpointError, atomic_save, load_checkpoint
 from training.config import TrainConfig
 from training.trainer import RunLockedError, Trainer
@@ -184,3 +185,18 @@ def test_the_paper_preset_is_spec_section_3():
     assert (paper.caps.kappa_spatial, paper.caps.kappa_temporal, paper.network.lstm_hidden) == (2.0, 1.0, 64)
     with pytest.raises(ValueError, match="unknown preset"):
         TrainConfig.preset("fast")
+
+
+def test_a_run_with_state_critics_and_error_integrals_trains_and_resumes(tmp_path):
+    """The asymmetric critics read the stored critics' state; the actor still reads its window."""
+    c = tiny_config(128)
+    c.network.critic = "state"
+    c.env.error_integral_decay = 0.99
+    run = tmp_path / "run"
+    Trainer(c, run).train()
+    data = load_checkpoint(run / "checkpoint.pt")
+    stored = data["buffer"]["data"]
+    assert stored["state"].shape[-1] == TaskConfig(error_integral_decay=0.99).critic_state_size
+    assert stored["observation"].shape[-1] == TaskConfig(error_integral_decay=0.99).observation_size
+    c.collector.total_frames = 192
+    assert int(Trainer(c, run, resume=True).train()["frames"]) == 192

@@ -68,6 +68,9 @@ class NetworkSettings:
     lstm_hidden: int = _f(64, "LSTM hidden units of the actor and of each critic (SPEC: 64)")
     mlp_hidden: int = _f(256, "units of each of the two fully connected layers (SPEC: 256)")
     initial_std: float = _f(1.0, "the actor's standard deviation (before tanh) at initialisation (TorchRL: 1)")
+    critic: str = _f("recurrent", "critics' input: 'recurrent' (the actor's observation window through an LSTM, "
+                                  "SPEC) or 'state' (the simulation's true, undelayed state, an MLP; the actor "
+                                  "is unchanged)")
 
 
 @dataclass

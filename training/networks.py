@@ -4,6 +4,9 @@ Both read the last ``window`` observations, oldest first, through one LSTM layer
 continue from its last output: the actor with two 256-unit ReLU layers to the mean and standard
 deviation of a tanh-squashed Gaussian, each critic by concatenating the action and two 256-unit
 ReLU layers to Q. The actor and the two critics each have their own LSTM.
+
+Beyond the paper, the critics can instead read the critics' state, which only a simulation has
+(``StateCriticNet``): an asymmetric actor-critic, whose actor still sees only what it will see in flight.
 """
 
 from __future__ import annotations
@@ -62,6 +65,20 @@ class CriticNet(nn.Module):
 
     def forward(self, window: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
         return self.head(torch.cat([self.encoder(window), action], dim=-1))
+
+
+class StateCriticNet(nn.Module):
+    """(critic state, action) -> Q with two 256-unit layers and no memory: for the critics' state
+    (``task.AttitudeTaskBatch.critic_states``), which is Markov by construction. ``encoder`` is the
+    identity so that it has the recurrent critic's interface."""
+
+    def __init__(self, state_size: int, mlp_hidden: int = 256, action_size: int = ACTION_SIZE):
+        super().__init__()
+        self.encoder = nn.Identity()
+        self.head = _mlp(state_size + action_size, mlp_hidden, 1)
+
+    def forward(self, state: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
+        return self.head(torch.cat([state, action], dim=-1))
 
 
 def make_actor(lstm_hidden: int = 64, mlp_hidden: int = 256, action_spec=None,

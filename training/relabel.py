@@ -23,41 +23,43 @@ import torch
 from tensordict import TensorDictBase
 
 from jsbsim_env.task import (
-    GOAL_COLUMNS,
     GOAL_HIGH,
     GOAL_LOW,
     INTEGRAL_GAIN,
     INTEGRAL_SIZE,
     OBS_OFFSET,
     OBS_SCALE,
-    OBS_SIZE,
     PENALTY_SATURATION,
     reward_from_achieved,
 )
 
-_GOAL_COLUMNS = GOAL_COLUMNS  # the goals are the observation's last three elements
-# With error integrals: roll, pitch, V_eas and sideslip integrals, then the weight, before the goals.
-_INTEGRAL_COLUMNS = slice(OBS_SIZE - 3, OBS_SIZE - 3 + INTEGRAL_SIZE - 2)  # those of the three goals
-_WEIGHT_COLUMN = OBS_SIZE - 3 + INTEGRAL_SIZE - 1
+# Observations and critics' states both end with the error integrals (where configured: roll,
+# pitch, V_eas, sideslip, then their weight) and the three goals; columns from the end.
+_GOAL_COLUMNS = slice(-3, None)
+_INTEGRAL_COLUMNS = slice(-3 - INTEGRAL_SIZE, -3 - INTEGRAL_SIZE + 3)  # those of the three goals
+_WEIGHT_COLUMN = -4
 _GOAL_OFFSET = torch.tensor(OBS_OFFSET[_GOAL_COLUMNS], dtype=torch.float32)
 _GOAL_SCALE = torch.tensor(OBS_SCALE[_GOAL_COLUMNS], dtype=torch.float32)
 _GOAL_LOW = torch.tensor(GOAL_LOW, dtype=torch.float32)
 _GOAL_HIGH = torch.tensor(GOAL_HIGH, dtype=torch.float32)
 _SATURATION = torch.tensor(PENALTY_SATURATION, dtype=torch.float32)
+_GOAL_KEYS = ("observation", ("next", "observation"), "state", ("next", "state"))
 
 
-def relabel_goals(batch: TensorDictBase, fraction: float, spread: float,
-                  generator: torch.Generator | None = None) -> TensorDictBase:
+def relabel_goals(batch: TensorDictBase, fraction: float, spread: float, generator: torch.Generator | None = None,
+                  error_integrals: bool = False) -> TensorDictBase:
     """A copy of ``batch`` with goals and rewards of a random ``fraction`` of its samples relabelled.
 
     Args:
         batch: replay samples with ``observation`` and ``("next", "observation")`` windows
-            (B, window, observation size), ``("next", "achieved")`` (B, 4), ``("next", "reward")`` (B, 1) and
-            ``("next", "terminated")`` (B, 1).
+            (B, window, observation size), ``("next", "achieved")`` (B, 4), ``("next", "reward")``
+            (B, 1) and ``("next", "terminated")`` (B, 1); and the critics' ``state`` (B, size) and
+            its next where the critics read it.
         fraction: share of the samples to relabel, in [0, 1].
         spread: new goal = achieved state + an offset drawn uniformly within +- ``spread`` times
             each channel's saturation error, clipped to the goal ranges.
         generator: random stream for the choice and the offsets.
+        error_integrals: the observations (and states) carry error integrals to move as well.
     """
     if not 0.0 <= fraction <= 1.0:
         raise ValueError(f"relabel fraction must lie in [0, 1], got {fraction}")
@@ -76,12 +78,16 @@ def relabel_goals(batch: TensorDictBase, fraction: float, spread: float,
                          _GOAL_HIGH.to(device))
     scaled = ((goal - _GOAL_OFFSET.to(device)) / _GOAL_SCALE.to(device)).unsqueeze(-2)
     out = batch.clone()
-    with_integrals = out["observation"].shape[-1] == OBS_SIZE + INTEGRAL_SIZE
-    for key in ("observation", ("next", "observation")):
-        obs = out[key]
-        if with_integrals:
-            shift = (obs[index, :, _GOAL_COLUMNS] - scaled.to(obs.dtype)) * obs[index, :, _WEIGHT_COLUMN, None]
-            obs[index, :, _INTEGRAL_COLUMNS] += INTEGRAL_GAIN * shift
-        obs[index, :, _GOAL_COLUMNS] = scaled.to(obs.dtype)
+    keys = [key for key in _GOAL_KEYS if key in out.keys(include_nested=True)]
+    for key in keys:
+        values = out[key]
+        new_goal = scaled.to(values.dtype)
+        if values.dim() == 2:  # a state: one row, no window
+            new_goal = new_goal.squeeze(-2)
+        if error_integrals:
+            rows = values[index]
+            shift = (rows[..., _GOAL_COLUMNS] - new_goal) * rows[..., _WEIGHT_COLUMN, None]
+            values[index, ..., _INTEGRAL_COLUMNS] = rows[..., _INTEGRAL_COLUMNS] + INTEGRAL_GAIN * shift
+        values[index, ..., _GOAL_COLUMNS] = new_goal
     out["next", "reward"][index] = reward_from_achieved(achieved, goal).unsqueeze(-1).to(out["next", "reward"].dtype)
     return out

@@ -29,7 +29,7 @@ from tensordict import TensorDictBase
 from torch import nn
 
 from training.caps import caps_penalties
-from training.networks import ActorNet, CriticNet
+from training.networks import ActorNet, CriticNet, StateCriticNet
 
 LOG_2 = math.log(2.0)
 
@@ -62,12 +62,16 @@ class RecurrentSAC(nn.Module):
         critics: the two online critics; their targets start as copies.
         alpha: the initial (or, with ``auto_alpha`` off, fixed) temperature.
         auto_alpha: tune the temperature towards ``target_entropy``.
+        critic_key: the batch entry the critics read: ``"observation"`` (the actor's window) or
+            ``"state"`` (the critics' state, ``StateCriticNet``).
     """
 
-    def __init__(self, actor_net: ActorNet, critics: list[CriticNet], gamma: float, tau: float, alpha: float,
-                 auto_alpha: bool, target_entropy: float, lr: float, caps_kappa_temporal: float,
-                 caps_kappa_spatial: float, caps_sigma_spatial: float, caps_batch_size: int):
+    def __init__(self, actor_net: ActorNet, critics: list[CriticNet | StateCriticNet], gamma: float, tau: float,
+                 alpha: float, auto_alpha: bool, target_entropy: float, lr: float, caps_kappa_temporal: float,
+                 caps_kappa_spatial: float, caps_sigma_spatial: float, caps_batch_size: int,
+                 critic_key: str = "observation"):
         super().__init__()
+        self.critic_key = critic_key
         self.actor_net = actor_net
         self.critics = nn.ModuleList(critics)
         self.target_critics = copy.deepcopy(self.critics).requires_grad_(False)
@@ -110,11 +114,12 @@ class RecurrentSAC(nn.Module):
             else:
                 next_loc, next_scale = loc[n:n + m].detach(), scale[n:n + m].detach()
             next_action, next_log_prob = tanh_normal_sample(next_loc, next_scale)
-            next_q = torch.min(torch.stack([c(next_obs, next_action) for c in self.target_critics]), dim=0).values
+            next_input = batch["next", self.critic_key]
+            next_q = torch.min(torch.stack([c(next_input, next_action) for c in self.target_critics]), dim=0).values
             not_done = 1.0 - batch["next", "terminated"].to(obs.dtype)
             target = batch["next", "reward"] + self.gamma * not_done * (next_q - alpha.detach() * next_log_prob[:, None])
 
-        features = [c.encoder(obs) for c in self.critics]
+        features = [c.encoder(batch[self.critic_key]) for c in self.critics]
         q = [c.head(torch.cat([f, batch["action"]], dim=-1)) for c, f in zip(self.critics, features)]
         loss_qvalue = sum((qi - target).square() for qi in q).mean()
         q_pi = torch.min(torch.stack([_head_without_weight_gradients(c.head, torch.cat([f.detach(), action], dim=-1))

@@ -26,13 +26,19 @@ from jsbsim_env.torchrl_env import make_env
 from training.checkpoint import CheckpointError, atomic_save, config_fingerprint, load_checkpoint, save_checkpoint
 from training.config import TrainConfig
 from training.evaluation import evaluate_policy
-from training.networks import make_actor, make_critic
+from training.networks import StateCriticNet, make_actor, make_critic
 from training.relabel import relabel_goals
 from training.runtime import check_threads
 from training.sac import RecurrentSAC
 
 STORED_KEYS = ("observation", "action", ("next", "observation"), ("next", "reward"), ("next", "done"),
                ("next", "terminated"), ("next", "achieved"))
+CRITIC_STATE_KEYS = ("state", ("next", "state"))  # stored too where the critics read the critics' state
+
+
+def stored_keys(config: TrainConfig) -> tuple:
+    """What the replay buffer keeps of each transition."""
+    return STORED_KEYS + (CRITIC_STATE_KEYS if config.network.critic == "state" else ())
 CSV_FIELDS = ("frames", "updates", "wall_s", "env_steps_per_s", "episodes", "episode_return", "episode_return_norm",
               "episode_length", "loss_actor", "loss_qvalue", "caps_temporal", "caps_spatial", "alpha", "entropy",
               "eval_return_norm", "eval_length", "eval_early_ends")
@@ -79,13 +85,21 @@ class Trainer:
         obs_size = self.task_config.observation_size
         self.actor = make_actor(c.network.lstm_hidden, c.network.mlp_hidden, self.env.action_spec,
                                 c.network.initial_std, obs_size=obs_size).to(self.device)
-        critics = [make_critic(c.network.lstm_hidden, c.network.mlp_hidden, obs_size=obs_size).module.to(self.device)
-                   for _ in range(2)]
+        if c.network.critic == "state":
+            critics = [StateCriticNet(self.task_config.critic_state_size, c.network.mlp_hidden).to(self.device)
+                       for _ in range(2)]
+        elif c.network.critic == "recurrent":
+            critics = [make_critic(c.network.lstm_hidden, c.network.mlp_hidden, obs_size=obs_size).module.to(self.device)
+                       for _ in range(2)]
+        else:
+            raise ValueError(f"network.critic must be 'recurrent' or 'state', got {c.network.critic!r}")
+        self.stored_keys = stored_keys(c)
         self.sac = RecurrentSAC(
             self.actor.module[0].module, critics, gamma=c.optim.gamma, tau=c.optim.tau, alpha=c.optim.alpha,
             auto_alpha=c.optim.auto_alpha, target_entropy=c.optim.target_entropy, lr=c.optim.lr,
             caps_kappa_temporal=c.caps.kappa_temporal, caps_kappa_spatial=c.caps.kappa_spatial,
-            caps_sigma_spatial=c.caps.sigma_spatial, caps_batch_size=c.caps.batch_size)
+            caps_sigma_spatial=c.caps.sigma_spatial, caps_batch_size=c.caps.batch_size,
+            critic_key="state" if c.network.critic == "state" else "observation")
         self.buffer = TensorDictReplayBuffer(storage=LazyTensorStorage(c.buffer.capacity), batch_size=c.buffer.batch_size)
         self.counters = Counters()
         self.fingerprint = resume_fingerprint(c)
@@ -162,7 +176,8 @@ class Trainer:
     # ------------------------------------------------------------------ training
     def _update(self, batch: TensorDictBase) -> None:
         c = self.config
-        batch = relabel_goals(batch.to(self.device), c.buffer.relabel_fraction, c.buffer.relabel_spread)
+        batch = relabel_goals(batch.to(self.device), c.buffer.relabel_fraction, c.buffer.relabel_spread,
+                              error_integrals=c.env.error_integral_decay > 0.0)
         for key, value in self.sac.update(batch).items():
             self._losses.setdefault(key, []).append(value)
         self.counters.updates += 1
@@ -207,7 +222,7 @@ class Trainer:
             for data in collector:
                 data = data.reshape(-1)
                 self._record_episodes(data)
-                self.buffer.extend(data.select(*STORED_KEYS).cpu())
+                self.buffer.extend(data.select(*self.stored_keys).cpu())
                 n = data.numel()
                 before = self.counters.frames
                 self.counters.frames += n
