@@ -1,5 +1,6 @@
 """SPEC Fig. 8: episode length and normalised return against environment steps, mean and spread
-over the runs given (one per seed), from their ``progress.csv``.
+over the runs given (one per seed), from their ``progress.csv``; and the evaluation return against
+training wall-clock.
 
     python scripts/plot_training.py runs/sac_seed0 runs/sac_seed1 runs/sac_seed2 --out fig8.png
 
@@ -20,9 +21,9 @@ from pathlib import Path
 import numpy as np
 
 
-def load_curve(run_dir: Path, key: str) -> tuple[np.ndarray, np.ndarray]:
+def load_curve(run_dir: Path, key: str, x: str = "frames") -> tuple[np.ndarray, np.ndarray]:
     rows = [r for r in csv.DictReader((run_dir / "progress.csv").open()) if r[key] != ""]
-    return np.array([float(r["frames"]) for r in rows]), np.array([float(r[key]) for r in rows])
+    return np.array([float(r[x]) for r in rows]), np.array([float(r[key]) for r in rows])
 
 
 def run_summary(run_dir: Path, final_evals: int = 3) -> dict:
@@ -58,20 +59,26 @@ def main() -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 3, figsize=(14, 4))
-    panels = (("episode_length", "episode length"), ("episode_return_norm", "normalised return (training)"),
-              ("eval_return_norm", "normalised return (deterministic evaluation)"))
-    for ax, (key, label) in zip(axes, panels):
-        curves = [load_curve(r, key) for r in args.runs]
+    fig, axes = plt.subplots(1, 4, figsize=(18, 4))
+    panels = (("episode_length", "episode length", "frames"),
+              ("episode_return_norm", "normalised return (training)", "frames"),
+              ("eval_return_norm", "normalised return (deterministic evaluation)", "frames"),
+              ("eval_return_norm", "normalised return (deterministic evaluation)", "wall_s"))
+    for ax, (key, label, x_key) in zip(axes, panels):
+        curves = [load_curve(r, key, x_key) for r in args.runs]
         curves = [c for c in curves if c[0].size]
         if not curves:
             continue
+        scale = 1 / 60 if x_key == "wall_s" else 1.0  # wall-clock in minutes
         grid = np.linspace(0, min(c[0][-1] for c in curves), 100)
         values = np.array([np.interp(grid, x, y) for x, y in curves])
-        ax.plot(grid, values.mean(axis=0), label=f"mean of {len(curves)} runs")
-        ax.fill_between(grid, values.min(axis=0), values.max(axis=0), alpha=0.3, label="min-max")
-        ax.xaxis.set_major_formatter(plt.FuncFormatter(lambda x, _: f"{x / 1000:.0f}k"))
-        ax.set_xlabel("environment steps")
+        ax.plot(grid * scale, values.mean(axis=0), label=f"mean of {len(curves)} runs")
+        ax.fill_between(grid * scale, values.min(axis=0), values.max(axis=0), alpha=0.3, label="min-max")
+        if x_key == "wall_s":
+            ax.set_xlabel("training wall-clock, min")
+        else:
+            ax.xaxis.set_major_formatter(plt.FuncFormatter(lambda x, _: f"{x / 1000:.0f}k"))
+            ax.set_xlabel("environment steps")
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
         ax.legend()

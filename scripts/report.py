@@ -3,6 +3,7 @@
     python scripts/report.py --out results/report             # full (a few minutes)
     python scripts/report.py --out /tmp/report --quick        # seconds, for checks
     python scripts/report.py --out DIR --policy runs/NAME/best_policy.pt
+    python scripts/report.py --out DIR --policy P --experiments altitudes,route_10km --controllers RL
 
 Writes DIR/report.md, a PNG per figure and DIR/metrics.json. The trained policy is the shipped
 one unless --policy is given; without either the PID parts run alone.
@@ -13,7 +14,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from training.report import run_report
+from training.report import CONTROLLERS, EXPERIMENTS, run_report
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -22,8 +23,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--policy", type=Path, help="policy file (default: the shipped controller)")
     parser.add_argument("--quick", action="store_true", help="short flights, for tests")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--experiments", default=",".join(EXPERIMENTS),
+                        help="comma-separated subset of the experiments (default: all of them)")
+    parser.add_argument("--controllers", default=",".join(CONTROLLERS),
+                        help="comma-separated subset of the controllers (default: both)")
     args = parser.parse_args(argv)
-    run_report(args.out, args.policy, quick=args.quick, progress=not args.no_progress)
+    experiments, controllers = (tuple(filter(None, v.split(","))) for v in (args.experiments, args.controllers))
+    for label, given, known in (("experiment", experiments, EXPERIMENTS), ("controller", controllers, CONTROLLERS)):
+        bad = [name for name in given if name not in known]
+        if bad or not given:
+            parser.error(f"unknown or no {label} {bad}: choose from {', '.join(known)}")
+    run_report(args.out, args.policy, quick=args.quick, progress=not args.no_progress, experiments=experiments,
+               controllers=controllers)
     print(f"wrote {args.out / 'report.md'}")
     return 0
 

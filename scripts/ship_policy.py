@@ -19,7 +19,7 @@ import torch
 
 from training.evaluate import evaluate
 from training.policy import SHIPPED_POLICY, PolicyRuntime, export_onnx, load_policy, policy_digest
-from training.provenance import read_sessions
+from training.provenance import read_sessions, training_wall_clock
 
 SHIPPED_DIR = Path(__file__).resolve().parents[1] / "training" / "shipped"
 
@@ -29,7 +29,8 @@ def main() -> None:
     parser.add_argument("run_dir", type=Path)
     parser.add_argument("--command", help="the training command, for a run without sessions.jsonl")
     parser.add_argument("--commit", help="the commit it was trained at, for a run without sessions.jsonl")
-    parser.add_argument("--episodes", type=int, default=50)
+    parser.add_argument("--episodes", type=int, default=50, help="evaluation-suite episodes for the record")
+    parser.add_argument("--cores", type=int, help="CPU cores the run trained on, for a run whose sessions do not say")
     args = parser.parse_args()
     torch.set_num_threads(1)
     source = args.run_dir / "best_policy.pt"
@@ -44,6 +45,10 @@ def main() -> None:
                          "give its --command and --commit")
         sessions.insert(0, {"command": args.command, "commit": args.commit, "dirty": None, "frames_at_start": 0})
     sessions = [s for s in sessions if s["frames_at_start"] < meta["frames"]]  # those that trained this policy
+    cores = {s["cpu_cores"] for s in sessions if "cpu_cores" in s} | ({args.cores} if args.cores else set())
+    if len(cores) != 1:
+        parser.error(f"the cores the run trained on are {'unknown: give --cores' if not cores else sorted(cores)}")
+    wall = training_wall_clock(args.run_dir, int(meta["frames"]))
     models = {s.get("aircraft_model") for s in sessions}
     if len(models) > 1:
         parser.error(f"{args.run_dir} was trained on more than one aircraft model ({sorted(map(str, models))})")
@@ -56,6 +61,9 @@ def main() -> None:
         "command": sessions[0]["command"], "commit": sessions[0]["commit"], "sessions": sessions,
         "aircraft_model": models.pop(),
         "seed": meta["seed"], "frames": meta["frames"],
+        # training time to this policy (all sessions), on this many cores; the run went on to its last row
+        "wall_clock_s": wall["to_policy_s"], "cpu_cores": cores.pop(),
+        "run_wall_clock_s": wall["whole_run_s"], "run_frames": wall["frames"],
         "training_evaluation": meta["evaluation"],
         "config": json.loads((args.run_dir / "config.json").read_text()),
         "evaluation": results,

@@ -131,6 +131,11 @@ def test_ship_policy_needs_the_runs_first_command_and_commit(policy_file, tmp_pa
         done = subprocess.run([sys.executable, str(script), str(run)], capture_output=True, text=True,
                               check=False, timeout=120)
         assert done.returncode == 2 and "give its --command and --commit" in done.stderr
+    # A whole run whose sessions do not say how many cores it had needs --cores.
+    (run / SESSIONS_FILE).write_text(resumed_only.replace("5000", "0") + "\n")
+    done = subprocess.run([sys.executable, str(script), str(run)], capture_output=True, text=True, check=False,
+                          timeout=120)
+    assert done.returncode == 2 and "cores the run trained on are unknown: give --cores" in done.stderr
     assert [p.stat().st_mtime_ns for p in sorted(Path(script).parents[1].glob("training/shipped/*"))] == shipped
 
 

@@ -50,3 +50,18 @@ def test_report_without_a_policy_file_fails_clearly(tmp_path):
                            str(tmp_path / "missing.pt"), "--no-progress"],
                           check=False, capture_output=True, text=True, timeout=300)
     assert done.returncode != 0 and "does not exist" in done.stderr
+
+
+def test_report_runs_only_the_experiments_and_controllers_named(tmp_path):
+    done = subprocess.run([sys.executable, str(SCRIPTS / "report.py"), "--out", str(tmp_path), "--quick",
+                           "--experiments", "altitudes", "--controllers", "PID", "--no-progress"],
+                          check=False, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    metrics = json.loads((tmp_path / "metrics.json").read_text())
+    assert metrics["controllers"] == ["PID"] and metrics["experiments"] == ["altitudes"]
+    assert set(metrics["altitudes"]) == {"1km", "20km"} and set(metrics["altitudes"]["1km"]) == {"PID"}
+    for key in ("route_10km", "perturbation", "backlash", "doublets", "effectiveness"):
+        assert key not in metrics
+    bad = subprocess.run([sys.executable, str(SCRIPTS / "report.py"), "--out", str(tmp_path), "--quick",
+                          "--experiments", "altitudes,loops"], check=False, capture_output=True, text=True, timeout=300)
+    assert bad.returncode != 0 and "unknown or no experiment ['loops']" in bad.stderr

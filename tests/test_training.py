@@ -143,6 +143,13 @@ def test_train_script_records_each_session_for_the_shipped_record(tmp_path):
     # A policy in the run folder is known to be trained on that model.
     assert trained_aircraft_model(run / "best_policy.pt") == aircraft.model_fingerprint()
     assert int(_rows(run)[-1]["frames"]) == 128
+    from training.provenance import training_wall_clock
+    from training.runtime import available_cores
+
+    assert first["cpu_cores"] == second["cpu_cores"] == available_cores()
+    wall = training_wall_clock(run, 96)
+    assert 0 < wall["to_policy_s"] <= wall["whole_run_s"] and wall["frames"] == 128
+    assert training_wall_clock(run, 10**9)["to_policy_s"] is None
 
 
 def test_a_second_trainer_on_a_live_run_is_refused(tmp_path):

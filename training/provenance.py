@@ -1,11 +1,12 @@
 """Where a run came from: each training session appends one line to ``RUN_DIR/sessions.jsonl``
 with the command, the commit (and whether the tree had uncommitted changes), the fingerprint of
-the aircraft model it flew and the step count it started at, so a shipped policy can name the
+the aircraft model it flew, the step count it started at and the CPU cores it could use, so a shipped policy can name the
 exact commands, commits and aircraft that produced it.
 """
 
 from __future__ import annotations
 
+import csv
 import json
 import shlex
 import subprocess
@@ -13,6 +14,7 @@ import time
 from pathlib import Path
 
 import aircraft
+from training.runtime import available_cores
 
 SESSIONS_FILE = "sessions.jsonl"
 REPO_ROOT = Path(__file__).resolve().parents[1]
@@ -38,7 +40,7 @@ def append_session(run_dir: Path | str, argv: list[str], frames: int) -> dict:
     commit, dirty = git_commit()
     record = {"started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "command": shlex.join(argv),
               "commit": commit, "dirty": dirty, "aircraft_model": aircraft.model_fingerprint(),
-              "frames_at_start": int(frames)}
+              "frames_at_start": int(frames), "cpu_cores": available_cores()}
     with (Path(run_dir) / SESSIONS_FILE).open("a") as fh:
         fh.write(json.dumps(record) + "\n")
     return record
@@ -50,6 +52,18 @@ def read_sessions(run_dir: Path | str) -> list[dict]:
     if not path.exists():
         return []
     return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+def training_wall_clock(run_dir: Path | str, frames: int) -> dict:
+    """Training wall-clock (s, over all sessions) from the run's ``progress.csv``: at the first row
+    with at least ``frames`` steps (None if the run never got there), and at its last row."""
+    path = Path(run_dir) / "progress.csv"
+    rows = list(csv.DictReader(path.open())) if path.exists() else []
+    if not rows:
+        raise ValueError(f"{path} is missing or has no rows: the run's wall-clock is unknown")
+    at = [float(r["wall_s"]) for r in rows if int(r["frames"]) >= frames]
+    return {"to_policy_s": at[0] if at else None, "whole_run_s": float(rows[-1]["wall_s"]),
+            "frames": int(rows[-1]["frames"])}
 
 
 def trained_aircraft_model(policy_path: Path | str) -> str | None:

@@ -32,6 +32,8 @@ from jsbsim_env.effectiveness import effectiveness, plot_effectiveness
 from jsbsim_env.missions import MissionResult, RouteConfig, fly_route
 
 REPORT_SEED = 2023
+EXPERIMENTS = ("doublets", "effectiveness", "route_10km", "perturbation", "altitudes", "backlash")
+CONTROLLERS = ("PID", "RL")
 ROUTE_SEED = 11
 
 # The paper's figures (SPEC section 4), for the tables.
@@ -250,17 +252,24 @@ def _fmt(x) -> str:
 
 
 def run_report(out_dir: Path | str, policy_path: Path | str | None = None, quick: bool = False,
-               progress: bool = True) -> dict:
-    """Run every experiment, write ``report.md``, the figures and ``metrics.json``; returns the metrics."""
+               progress: bool = True, experiments: tuple[str, ...] = EXPERIMENTS,
+               controllers: tuple[str, ...] = CONTROLLERS) -> dict:
+    """Run the experiments (all of ``EXPERIMENTS`` unless fewer are named) for the controllers named
+    ("PID", "RL"), write ``report.md``, the figures and ``metrics.json``; returns the metrics."""
+    unknown = sorted(set(experiments) - set(EXPERIMENTS)) + sorted(set(controllers) - set(CONTROLLERS))
+    if unknown:
+        raise ValueError(f"unknown experiment or controller {unknown}: experiments are {list(EXPERIMENTS)}, "
+                         f"controllers {list(CONTROLLERS)}")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     plan = ReportPlan.quick() if quick else ReportPlan()
     makers, policy_file = _controllers(policy_path)
+    makers = {name: make for name, make in makers.items() if name in controllers}
     names = list(makers)
     base = RouteConfig(altitude_m=10_000.0, duration_s=plan.route_10km_s, turbulence_legs=(plan.turbulence_leg,),
                        seed=ROUTE_SEED)
-    tasks: list[tuple[str, Callable[[], None]]] = []
-    metrics: dict = {"plan": asdict(plan), "controllers": names, "paper": {"table8": PAPER_TABLE8,
+    tasks: list[tuple[str, str, Callable[[], None]]] = []  # (experiment, label, task)
+    metrics: dict = {"plan": asdict(plan), "controllers": names, "experiments": list(experiments), "paper": {"table8": PAPER_TABLE8,
                      "level_mae": PAPER_LEVEL_MAE, "steady_state": PAPER_STEADY_STATE}}
     if policy_file is not None:
         metrics["policy"] = policy_provenance(policy_file)
@@ -280,14 +289,14 @@ def run_report(out_dir: Path | str, policy_path: Path | str | None = None, quick
 
         metrics["doublets"] = doublet_runs(makers["RL"](), plan.doublet_altitudes_m, out, prefix="fig09_doublets")
 
-    tasks.append(("Fig. 9 doublets", doublets))
+    tasks.append(("doublets", "Fig. 9 doublets", doublets))
 
     def fig10() -> None:
         rows = effectiveness(list(plan.effectiveness_altitudes_m), 10.0)
         plot_effectiveness(rows, out / "fig10_effectiveness.png")
         metrics["effectiveness"] = rows
 
-    tasks.append(("Fig. 10 effectiveness", fig10))
+    tasks.append(("effectiveness", "Fig. 10 effectiveness", fig10))
 
     # Items 4-5: the 10 km route with turbulence on one leg.
     def route_10km(name: str) -> Callable[[], None]:
@@ -310,7 +319,7 @@ def run_report(out_dir: Path | str, policy_path: Path | str | None = None, quick
         return run
 
     for name in names:
-        tasks.append((f"10 km route, {name}", route_10km(name)))
+        tasks.append(("route_10km", f"10 km route, {name}", route_10km(name)))
 
     # Item 6: Table 9 aircraft, calm air.
     def perturbation(name: str, parameters: str) -> Callable[[], None]:
@@ -325,7 +334,7 @@ def run_report(out_dir: Path | str, policy_path: Path | str | None = None, quick
 
     for parameters in ("positive", "negative"):
         for name in names:
-            tasks.append((f"Table 9 {parameters}, {name}", perturbation(name, parameters)))
+            tasks.append(("perturbation", f"Table 9 {parameters}, {name}", perturbation(name, parameters)))
 
     # Item 7: 1 km and 20 km, calm air.
     def altitude_route(name: str, altitude_m: float) -> Callable[[], None]:
@@ -343,7 +352,8 @@ def run_report(out_dir: Path | str, policy_path: Path | str | None = None, quick
 
     for altitude_m in (1000.0, 20000.0):
         for name in names:
-            tasks.append((f"{altitude_m / 1000:.0f} km route, {name}", altitude_route(name, altitude_m)))
+            tasks.append(("altitudes", f"{altitude_m / 1000:.0f} km route, {name}",
+                          altitude_route(name, altitude_m)))
 
     # Item 8: backlash.
     def backlash(name: str) -> Callable[[], None]:
@@ -368,8 +378,9 @@ def run_report(out_dir: Path | str, policy_path: Path | str | None = None, quick
         return run
 
     for name in names:
-        tasks.append((f"backlash, {name}", backlash(name)))
+        tasks.append(("backlash", f"backlash, {name}", backlash(name)))
 
+    tasks = [(label, task) for experiment, label, task in tasks if experiment in experiments]
     bar = None
     if progress:
         from tqdm import tqdm
@@ -466,4 +477,4 @@ def render_markdown(metrics: dict, out: Path) -> str:
     return "\n".join(lines)
 
 
-__all__ = ["PAPER_TABLE8", "ReportPlan", "render_markdown", "run_report", "steady_state_errors"]
+__all__ = ["CONTROLLERS", "EXPERIMENTS", "PAPER_TABLE8", "ReportPlan", "render_markdown", "run_report", "steady_state_errors"]

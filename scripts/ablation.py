@@ -1,0 +1,133 @@
+"""Score training runs for the ablation table: each run's best policy on the evaluation suite, the
+calm 1 km and 20 km routes (steady-state error) and the 10 km route (turbulent leg, level flight),
+with the wall-clock the run took to reach that policy; then one row per candidate over its seeds.
+
+    python scripts/ablation.py runs/c2_seed0 runs/c2_seed1 runs/c2_seed2 --markdown
+    python scripts/ablation.py runs/*_seed* --pid --json
+
+Runs are grouped into candidates by their folder name without the ``_seedN`` ending. Each run's
+scores are kept in ``RUN_DIR/scorecard/scorecard.json`` (with the report's figures beside it) and
+reused while the policy file is unchanged, so adding a seed costs only that seed's flights.
+``--pid`` adds the PID on the same flights as the reference row.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import torch
+
+import aircraft
+from jsbsim_env.controllers.pid import PIDAttitudeController
+from training.evaluate import evaluate
+from training.policy import PolicyRuntime, policy_digest
+from training.provenance import training_wall_clock
+from training.report import run_report
+
+EXPERIMENTS = ("altitudes", "route_10km")
+# (column, where it sits in a scorecard); steady-state errors are calm air, the RMSEs the turbulent leg.
+COLUMNS = (
+    ("suite return", ("suite", "mean_return_norm")),
+    ("suite early ends", ("suite", "ended_early")),
+    ("1 km roll/pitch SS, deg", ("altitudes", "1km")),
+    ("20 km roll/pitch SS, deg", ("altitudes", "20km")),
+    ("level MAE roll/pitch, deg", ("route_10km", "level_window")),
+    ("turb. RMSE roll/pitch/β, deg", ("route_10km", "turbulent_leg")),
+)
+
+
+def candidate_name(run_dir: Path) -> str:
+    return re.sub(r"_seed\d+$", "", run_dir.name)
+
+
+def score(controller_factory, out_dir: Path, policy: Path | None, episodes: int, quick: bool = False) -> dict:
+    """Suite, routes and their figures into ``out_dir``, kept in ``out_dir/scorecard.json`` and
+    reused while the controller (the policy file's digest, or the PID), the aircraft model, the
+    episode count and ``quick`` are the same."""
+    key = {"controller": policy_digest(policy) if policy is not None else "PID", "episodes": episodes,
+           "quick": quick, "aircraft_model": aircraft.model_fingerprint()}
+    path = out_dir / "scorecard.json"
+    if path.exists():
+        cached = json.loads(path.read_text())
+        if cached.get("key") == key:
+            return cached
+    out_dir.mkdir(parents=True, exist_ok=True)
+    suite = evaluate(controller_factory(), episodes=episodes)["episodes"]
+    name = "PID" if policy is None else "RL"
+    metrics = run_report(out_dir, policy, quick=quick, progress=False, experiments=EXPERIMENTS, controllers=(name,))
+    card = {"key": key, "suite": suite,
+            "altitudes": {k: v[name]["steady_state_error"] for k, v in metrics["altitudes"].items()},
+            "route_10km": {k: metrics["route_10km"][name][k] for k in ("level_window", "turbulent_leg")},
+            "ended_early": {k: bool(v[name]["ended_early"]) for k, v in
+                            [*metrics["altitudes"].items(), ("10km", metrics["route_10km"])]}}
+    path.write_text(json.dumps(card, indent=1, default=float))
+    return card
+
+
+def run_scorecard(run_dir: Path, episodes: int, quick: bool = False) -> dict:
+    """The scores of the run's best policy, with the wall-clock the run took to reach it."""
+    policy = run_dir / "best_policy.pt"
+    card = score(lambda: PolicyRuntime(policy, backend="torch"), run_dir / "scorecard", policy, episodes, quick)
+    frames = int(torch.load(policy, map_location="cpu", weights_only=False)["frames"])
+    return {**card, "run": str(run_dir), "policy_frames": frames, "wall_clock": training_wall_clock(run_dir, frames)}
+
+
+def _pair(values: dict, keys: tuple[str, ...]) -> list[float]:
+    return [float(values[k]) for k in keys]
+
+
+def cell(cards: list[dict], where: tuple[str, str]) -> str:
+    """Mean over seeds, and the range where there is more than one."""
+    section, key = where
+    if section == "suite":
+        values = np.array([[c["suite"][key]] for c in cards], dtype=float)
+    elif section == "altitudes":
+        values = np.array([_pair(c["altitudes"][key], ("roll_deg", "pitch_deg")) for c in cards])
+    elif key == "level_window":
+        values = np.array([_pair(c["route_10km"][key], ("mae_roll_deg", "mae_pitch_deg")) for c in cards])
+    else:
+        values = np.array([_pair(c["route_10km"][key], ("rmse_roll_deg", "rmse_pitch_deg", "rmse_beta_deg"))
+                           for c in cards])
+    fmt = "{:.0f}" if key == "ended_early" else "{:.3f}"
+    text = " / ".join(fmt.format(v) for v in values.mean(axis=0))
+    if len(cards) > 1 and key == "mean_return_norm":
+        text += f" ({values.min():.3f}–{values.max():.3f})"
+    return text
+
+
+def markdown(groups: dict[str, list[dict]]) -> str:
+    head = ["candidate", "seeds", *(c for c, _ in COLUMNS), "wall-clock to policy, min"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for name, cards in groups.items():
+        walls = [c["wall_clock"]["to_policy_s"] / 60 for c in cards if c.get("wall_clock")]
+        wall = f"{np.mean(walls):.0f} ({min(walls):.0f}–{max(walls):.0f})" if walls else "—"
+        lines.append("| " + " | ".join([name, str(len(cards)), *(cell(cards, w) for _, w in COLUMNS), wall]) + " |")
+    return "\n".join(lines)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("runs", type=Path, nargs="+", help="run folders, each with best_policy.pt")
+    parser.add_argument("--episodes", type=int, default=50, help="evaluation-suite episodes per run")
+    parser.add_argument("--pid", type=Path, metavar="DIR", help="also score the PID, its flights in DIR")
+    parser.add_argument("--markdown", action="store_true", help="print the table as Markdown")
+    parser.add_argument("--quick", action="store_true", help="short routes, for checks")
+    args = parser.parse_args()
+    torch.set_num_threads(1)
+    for run in args.runs:
+        if not (run / "best_policy.pt").is_file():
+            parser.error(f"{run} has no best_policy.pt")
+    groups: dict[str, list[dict]] = {}
+    if args.pid:
+        groups["PID (reference)"] = [score(PIDAttitudeController, args.pid, None, args.episodes, args.quick)]
+    for run in args.runs:
+        groups.setdefault(candidate_name(run), []).append(run_scorecard(run, args.episodes, args.quick))
+    print(markdown(groups) if args.markdown else json.dumps(groups, indent=1, default=float))
+
+
+if __name__ == "__main__":
+    main()

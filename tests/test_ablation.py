@@ -1,0 +1,49 @@
+"""``scripts/ablation.py`` scores run folders, groups seeds into candidates and reuses its scores."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+from training.config import TrainConfig
+from training.trainer import Trainer
+
+SCRIPT = Path(__file__).resolve().parents[1] / "scripts" / "ablation.py"
+
+
+def _run_folder(root: Path, name: str, seed: int) -> Path:
+    c = TrainConfig(seed=seed)
+    c.env.num_envs = 1
+    c.buffer.capacity = 10
+    c.log.progress = False
+    run = root / name
+    Trainer(c, run).save_policy(run / "best_policy.pt", {"return_norm": 0.0})
+    (run / "progress.csv").write_text("frames,wall_s\n0,0.5\n0,12.0\n")
+    return run
+
+
+def test_ablation_scores_groups_and_caches(tmp_path):
+    runs = [_run_folder(tmp_path, f"cand_seed{s}", s) for s in (0, 1)]
+    command = [sys.executable, str(SCRIPT), *map(str, runs), "--quick", "--episodes", "1"]
+    done = subprocess.run(command, check=False, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    groups = json.loads(done.stdout)
+    assert list(groups) == ["cand"] and len(groups["cand"]) == 2
+    card = groups["cand"][0]
+    assert card["wall_clock"] == {"to_policy_s": 0.5, "whole_run_s": 12.0, "frames": 0}
+    assert set(card["altitudes"]) == {"1km", "20km"} and "turbulent_leg" in card["route_10km"]
+    stored = runs[0] / "scorecard" / "scorecard.json"
+    stamp = stored.stat().st_mtime_ns
+    table = subprocess.run([*command, "--markdown"], check=False, capture_output=True, text=True, timeout=600)
+    assert table.returncode == 0, table.stderr
+    assert stored.stat().st_mtime_ns == stamp  # the same policy is not flown again
+    row = [line for line in table.stdout.splitlines() if line.startswith("| cand |")]
+    assert len(row) == 1 and "| 2 |" in row[0]
+
+
+def test_ablation_refuses_a_folder_without_a_policy(tmp_path):
+    done = subprocess.run([sys.executable, str(SCRIPT), str(tmp_path)], check=False, capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode != 0 and "has no best_policy.pt" in done.stderr
