@@ -323,8 +323,7 @@ class AttitudeTaskBatch:
         offset, inv_scale = self._obs_offset, self._obs_inv_scale
         for i, core in enumerate(self.cores):
             true = [(x - o) * k for x, o, k in zip(self.states[i], offset, inv_scale)]
-            obs = self._obs_lists[i]
-            tail = obs[OBS_SIZE - 3:] if self._integrals is not None else obs[-3:]  # integrals and goals
+            tail = self._obs_lists[i][OBS_SIZE - 3:]  # the error integrals where configured, and the goals
             rows.append(true + self._recent_actions[i] + core.episode_conditions() + tail)
         return np.nan_to_num(np.array(rows, dtype=np.float32))
 

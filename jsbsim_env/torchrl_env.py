@@ -28,10 +28,10 @@ class SolarUAVAttitudeEnv(EnvBase):
     """Attitude tracking for the solar UAV, ``num_envs`` aircraft stepped together.
 
     Keys: ``observation`` (num_envs, 20, or ``config.observation_size``) float32, ``action`` (num_envs, 4) in [-1, 1],
-    ``reward`` (num_envs, 1), ``done``/``terminated``/``truncated`` (num_envs, 1), and
-    ``state`` (num_envs, ``config.critic_state_size``): the critics' state, known in simulation only
-    (``task.AttitudeTaskBatch.critic_states``), ``reward_terms`` (num_envs, 4): the penalties of
-    ``task.REWARD_TERMS``, with
+    ``reward`` (num_envs, 1), ``done``/``terminated``/``truncated`` (num_envs, 1), with
+    ``critic_state`` ``state`` (num_envs, ``config.critic_state_size``): the critics' state, known in
+    simulation only (``task.AttitudeTaskBatch.critic_states``), and ``reward_terms`` (num_envs, 4): the
+    penalties of ``task.REWARD_TERMS``, with
     ``reward = 1 - reward_terms.sum(-1)``, and ``achieved`` (num_envs, 4): the true roll, pitch
     (rad), V_eas (m/s) and sideslip (rad) the reward was computed from (``task.ACHIEVED_INDEX``),
     which lets a learner recompute the reward for another goal.
@@ -39,22 +39,24 @@ class SolarUAVAttitudeEnv(EnvBase):
 
     batch_locked = True
 
-    def __init__(self, num_envs: int = 8, config: TaskConfig | None = None, seed: int = 0):
+    def __init__(self, num_envs: int = 8, config: TaskConfig | None = None, seed: int = 0,
+                 critic_state: bool = False):
         # The simulation runs on the CPU; collectors move the data to a training device.
         super().__init__(device="cpu", batch_size=torch.Size([num_envs]))
         self.num_envs = num_envs
         self.batch = AttitudeTaskBatch(num_envs, config)
         obs_size = self.batch.config.observation_size
+        # Only critics that read it need the critics' state: it costs about 8 % of a step.
+        self.critic_state = critic_state
         self._episodes = np.zeros(num_envs, dtype=np.int64)
         self._base_seed = int(seed)
         n = (num_envs,)
-        self.observation_spec = Composite(
-            observation=Unbounded(shape=(*n, obs_size), dtype=torch.float32),
-            state=Unbounded(shape=(*n, self.batch.config.critic_state_size), dtype=torch.float32),
-            reward_terms=Unbounded(shape=(*n, len(REWARD_TERMS)), dtype=torch.float32),
-            achieved=Unbounded(shape=(*n, len(ACHIEVED_INDEX)), dtype=torch.float32),
-            shape=n,
-        )
+        specs = {"observation": Unbounded(shape=(*n, obs_size), dtype=torch.float32),
+                 "reward_terms": Unbounded(shape=(*n, len(REWARD_TERMS)), dtype=torch.float32),
+                 "achieved": Unbounded(shape=(*n, len(ACHIEVED_INDEX)), dtype=torch.float32)}
+        if critic_state:
+            specs["state"] = Unbounded(shape=(*n, self.batch.config.critic_state_size), dtype=torch.float32)
+        self.observation_spec = Composite(specs, shape=n)
         self.action_spec = Bounded(low=-1.0, high=1.0, shape=(*n, ACTION_SIZE), dtype=torch.float32)
         self.reward_spec = Unbounded(shape=(*n, 1), dtype=torch.float32)
         self.done_spec = Composite(
@@ -102,21 +104,21 @@ class SolarUAVAttitudeEnv(EnvBase):
         truncated_t = torch.from_numpy(np.asarray(truncated, dtype=bool)).reshape(n, 1)
         # Fresh CPU tensors of the spec's shapes and dtypes: the unchecked constructor is safe here
         # and saves a third of TorchRL's per-step overhead; on the env's device, TorchRL skips a copy.
-        return TensorDict._new_unsafe(
-            {"observation": torch.from_numpy(self._obs.copy()), "state": torch.from_numpy(self.batch.critic_states()),
-             "reward_terms": torch.from_numpy(self._terms.copy()),
-             "achieved": torch.from_numpy(self._achieved.copy()),
-             "reward": torch.from_numpy(np.asarray(rewards, dtype=np.float32)).reshape(n, 1),
-             "terminated": terminated_t, "truncated": truncated_t, "done": terminated_t | truncated_t},
-            batch_size=self.batch_size, device=self.device,
-        )
+        values = {"observation": torch.from_numpy(self._obs.copy()),
+                  "reward_terms": torch.from_numpy(self._terms.copy()),
+                  "achieved": torch.from_numpy(self._achieved.copy()),
+                  "reward": torch.from_numpy(np.asarray(rewards, dtype=np.float32)).reshape(n, 1),
+                  "terminated": terminated_t, "truncated": truncated_t, "done": terminated_t | truncated_t}
+        if self.critic_state:
+            values["state"] = torch.from_numpy(self.batch.critic_states())
+        return TensorDict._new_unsafe(values, batch_size=self.batch_size, device=self.device)
 
 
 def make_env(num_envs: int = 8, config: TaskConfig | None = None, seed: int = 0,
-             window: int = OBSERVATION_WINDOW) -> TransformedEnv:
+             window: int = OBSERVATION_WINDOW, critic_state: bool = False) -> TransformedEnv:
     """The training environment: the 8-step observation window (``observation`` becomes
     (num_envs, window, 20), oldest first), a step counter and the episode reward sum."""
-    env = SolarUAVAttitudeEnv(num_envs, config, seed)
+    env = SolarUAVAttitudeEnv(num_envs, config, seed, critic_state)
     return TransformedEnv(env, Compose(
         UnsqueezeTransform(dim=-2, in_keys=["observation"], out_keys=["observation"]),
         CatFrames(N=window, dim=-2, in_keys=["observation"], out_keys=["observation"]),

@@ -23,8 +23,8 @@ import torch
 
 import aircraft
 from jsbsim_env.controllers.pid import PIDAttitudeController
-from training.evaluate import evaluate
-from training.policy import PolicyRuntime, policy_digest
+from training.evaluate import suite_episodes
+from training.policy import PolicyRuntime, load_policy, policy_digest
 from training.provenance import training_wall_clock
 from training.report import run_report
 
@@ -56,7 +56,7 @@ def score(controller_factory, out_dir: Path, policy: Path | None, episodes: int,
         if cached.get("key") == key:
             return cached
     out_dir.mkdir(parents=True, exist_ok=True)
-    suite = evaluate(controller_factory(), episodes=episodes)["episodes"]
+    suite = suite_episodes(controller_factory(), episodes)
     name = "PID" if policy is None else "RL"
     metrics = run_report(out_dir, policy, quick=quick, progress=False, experiments=EXPERIMENTS, controllers=(name,))
     card = {"key": key, "suite": suite,
@@ -72,7 +72,7 @@ def run_scorecard(run_dir: Path, episodes: int, quick: bool = False) -> dict:
     """The scores of the run's best policy, with the wall-clock the run took to reach it."""
     policy = run_dir / "best_policy.pt"
     card = score(lambda: PolicyRuntime(policy, backend="torch"), run_dir / "scorecard", policy, episodes, quick)
-    frames = int(torch.load(policy, map_location="cpu", weights_only=False)["frames"])
+    frames = int(load_policy(policy)[1]["frames"])
     return {**card, "run": str(run_dir), "policy_frames": frames, "wall_clock": training_wall_clock(run_dir, frames)}
 
 

@@ -57,9 +57,14 @@ def test_torchrl_specs_plain_and_with_training_transforms():
     from torchrl.envs.utils import check_env_specs
 
     check_env_specs(SolarUAVAttitudeEnv(2, seed=3))
+    with_state = SolarUAVAttitudeEnv(2, seed=3, critic_state=True)
+    check_env_specs(with_state)
+    assert with_state.rollout(2)["next", "state"].shape == (2, 2, TaskConfig().critic_state_size)
     env = make_env(2, seed=3)
     check_env_specs(env)
     td = env.rollout(10, break_when_any_done=False)
+    keys = set(td.keys(include_nested=True))
+    assert "state" not in keys and ("next", "state") not in keys  # the critics' state: only when asked
     assert td["next", "observation"].shape == (2, 10, 8, OBS_SIZE)
     # The window holds the last 8 observations, oldest first.
     torch.testing.assert_close(td["next", "observation"][:, 3, -2], td["next", "observation"][:, 2, -1])

@@ -41,7 +41,7 @@ def test_a_steady_error_reads_gain_times_the_error_and_a_goal_step_moves_it_at_o
 @pytest.fixture(scope="module")
 def rollout():
     env = make_env(num_envs=2, config=TaskConfig(core=CoreConfig(turbulence=False), error_integral_decay=DECAY),
-                   seed=6)
+                   seed=6, critic_state=True)
     torch.manual_seed(0)
     return env.rollout(80, break_when_any_done=False).reshape(-1)
 

@@ -136,7 +136,12 @@ def doublet_runs(controller: AttitudeController, altitudes_m=DOUBLET_ALTITUDES_M
 def evaluate(controller: AttitudeController, episodes: int = 50, plot_dir: Path | None = None,
              progress: bool = False) -> dict:
     """Run the whole suite; returns the metrics (and writes the Fig. 9 plots to ``plot_dir``)."""
-    results: dict = {"doublets": doublet_runs(controller, DOUBLET_ALTITUDES_M, plot_dir), "episodes": {}}
+    return {"doublets": doublet_runs(controller, DOUBLET_ALTITUDES_M, plot_dir),
+            "episodes": suite_episodes(controller, episodes, progress)}
+
+
+def suite_episodes(controller: AttitudeController, episodes: int = 50, progress: bool = False) -> dict:
+    """The suite's seeded training-style episodes alone: mean metrics and return, early ends."""
     batch = AttitudeTaskBatch(1, TaskConfig())
     rows, early, reasons = [], 0, []
     iterator = range(episodes)
@@ -151,11 +156,11 @@ def evaluate(controller: AttitudeController, episodes: int = 50, plot_dir: Path 
         if end["terminated"]:
             early += 1
             reasons.append(end["reason"])
-    results["episodes"] = {
+    return {
         "count": episodes, "ended_early": early, "reasons": sorted(set(reasons)),
         **{f"mean_{k}": float(np.mean([r[k] for r in rows])) for k in rows[0]},
     }
-    return results
 
 
-__all__ = ["DOUBLET_ALTITUDES_M", "doublet_goal", "doublet_runs", "evaluate", "fly", "step_response_metrics"]
+__all__ = ["DOUBLET_ALTITUDES_M", "doublet_goal", "doublet_runs", "evaluate", "fly", "step_response_metrics",
+           "suite_episodes"]

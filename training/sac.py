@@ -87,8 +87,8 @@ class RecurrentSAC(nn.Module):
             self.optimizer = torch.optim.Adam(params, lr=lr, fused=True)
         except (RuntimeError, TypeError):
             self.optimizer = torch.optim.Adam(params, lr=lr, foreach=True)
-        self._online = [p for p in self.critics.parameters()]
-        self._target = [p for p in self.target_critics.parameters()]
+        self._online = list(self.critics.parameters())
+        self._target = list(self.target_critics.parameters())
 
     def losses(self, batch: TensorDictBase) -> dict[str, torch.Tensor]:
         """Every loss term of one update, and what is logged (``loss_*``, ``caps_*``, ``alpha``, ``entropy``)."""

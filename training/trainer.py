@@ -39,6 +39,8 @@ CRITIC_STATE_KEYS = ("state", ("next", "state"))  # stored too where the critics
 def stored_keys(config: TrainConfig) -> tuple:
     """What the replay buffer keeps of each transition."""
     return STORED_KEYS + (CRITIC_STATE_KEYS if config.network.critic == "state" else ())
+
+
 CSV_FIELDS = ("frames", "updates", "wall_s", "env_steps_per_s", "episodes", "episode_return", "episode_return_norm",
               "episode_length", "loss_actor", "loss_qvalue", "caps_temporal", "caps_spatial", "alpha", "entropy",
               "eval_return_norm", "eval_length", "eval_early_ends")
@@ -81,7 +83,8 @@ class Trainer:
         self.device = torch.device(c.device)
         core = CoreConfig() if c.env.disturbances else CoreConfig.ideal()
         self.task_config = TaskConfig(core=core, error_integral_decay=c.env.error_integral_decay)
-        self.env = make_env(c.env.num_envs, self.task_config, seed=c.seed, window=c.env.window)
+        self.env = make_env(c.env.num_envs, self.task_config, seed=c.seed, window=c.env.window,
+                            critic_state=c.network.critic == "state")
         obs_size = self.task_config.observation_size
         self.actor = make_actor(c.network.lstm_hidden, c.network.mlp_hidden, self.env.action_spec,
                                 c.network.initial_std, obs_size=obs_size).to(self.device)
