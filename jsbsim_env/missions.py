@@ -120,66 +120,108 @@ class MissionResult:
         return out
 
 
+_ROW_NAMES = ("time_s", "north_m", "east_m", "altitude_m", "roll_rad", "pitch_rad", "heading_rad", "eas_mps",
+              "beta_rad", "roll_cmd_rad", "pitch_cmd_rad", "eas_cmd_mps", "cross_track_m", "leg", "turbulence")
+
+
+class RouteFlight:
+    """One route flight, a control step at a time: ``demand()`` gives the measurement and the
+    attitude demands of the step, ``advance(command)`` flies it. ``fly_route`` loops over them in
+    one process; the loop bench (``jsbsim_env.bench``) puts a serial link between the two calls.
+    """
+
+    def __init__(self, config: RouteConfig | None = None):
+        cfg = self.config = config or RouteConfig()
+        self.waypoints = cfg.waypoints()
+        self.dt_s = 1.0 / cfg.control_rate_hz
+        self.steps = math.ceil(cfg.duration_s * cfg.control_rate_hz)
+        self.core = FlightCore(cfg.core_config())
+        first_leg = self.waypoints[1] - self.waypoints[0]
+        heading_deg = math.degrees(math.atan2(first_leg[1], first_leg[0]))
+        self.measurement = self.core.reset(cfg.seed, altitude_m=cfg.altitude_m, airspeed_eas_mps=cfg.eas_mps,
+                                           heading_deg=heading_deg)
+        self.schedule = GainSchedule()
+        self.tecs, self.l1 = TECS(cfg.tecs), L1Guidance(cfg.l1)
+        self.tecs.reset()
+        self.leg = 0
+        self.k = 0  # control steps flown
+        self.ended: str | None = None
+        self._rows = np.full((self.steps, len(_ROW_NAMES)), np.nan)
+        self._commands = np.full((self.steps, 4), np.nan)
+        self._surfaces = np.full((self.steps, 4), np.nan)
+        self._pending: tuple | None = None  # this step's demands, between demand() and advance()
+
+    @property
+    def done(self) -> bool:
+        return self.ended is not None or self.k >= self.steps
+
+    def demand(self) -> tuple[np.ndarray, np.ndarray]:
+        """The step's measurement (``core.STATE_NAMES``) and attitude demands (roll, pitch in rad,
+        EAS in m/s): L1 guidance and TECS, once per step."""
+        if self.done:
+            raise RuntimeError("the route flight is over")
+        cfg, nav, wp = self.config, self.core.navigation(), self.waypoints
+        a_wp, b_wp = wp[self.leg % len(wp)], wp[(self.leg + 1) % len(wp)]
+        ground_speed = math.hypot(nav.v_north_mps, nav.v_east_mps)
+        turn_radius = ground_speed ** 2 / (G_MPS2 * math.tan(cfg.l1.roll_limit_rad))
+        if math.hypot(b_wp[0] - nav.north_m, b_wp[1] - nav.east_m) < turn_radius:
+            self.leg += 1
+            a_wp, b_wp = wp[self.leg % len(wp)], wp[(self.leg + 1) % len(wp)]
+        guidance = self.l1.update((nav.north_m, nav.east_m), (nav.v_north_mps, nav.v_east_mps), a_wp, b_wp)
+        m = self.measurement
+        point = self.schedule.at(m[0])
+        energy = self.tecs.update(self.dt_s, m[0], -nav.v_down_mps, nav.tas_mps, nav.eas_to_tas, m[2],
+                                  cfg.altitude_m, cfg.eas_mps, point.throttle_trim, point.tas_accel_per_throttle_mps2,
+                                  math.radians(point.pitch_trim_deg))
+        setpoint = np.array([guidance.roll_rad, energy.pitch_rad, cfg.eas_mps])
+        self._pending = (nav, guidance.cross_track_m, setpoint, energy.throttle)
+        return m, setpoint
+
+    def advance(self, command) -> str | None:
+        """Fly the step with the attitude controller's ``command`` (aileron, elevator, rudder in
+        deg, throttle), TECS's throttle replacing its throttle; returns why the flight ended early,
+        or None."""
+        if self._pending is None:
+            raise RuntimeError("advance() needs demand() first")
+        nav, cross_track_m, setpoint, throttle = self._pending
+        self._pending = None
+        command = np.array(command, dtype=float)
+        command[3] = throttle  # TECS's throttle replaces the attitude controller's
+        k, cfg = self.k, self.config
+        turbulent = self.leg in cfg.turbulence_legs
+        self.core.turbulence_gain = 1.0 if turbulent else 0.0
+        s = self.core.last_true_state
+        self._rows[k] = (k * self.dt_s, nav.north_m, nav.east_m, s[0], s[1], s[2], nav.heading_rad, s[6], s[8],
+                         setpoint[0], setpoint[1], setpoint[2], cross_track_m, self.leg, float(turbulent))
+        self._commands[k] = command
+        self._surfaces[k] = (math.degrees(s[9]), math.degrees(s[10]), math.degrees(s[11]), s[12])
+        self.measurement = self.core.step(command)
+        self.k = k + 1
+        self.ended = self.core.envelope_violation()
+        return self.ended
+
+    def result(self) -> MissionResult:
+        """The time histories flown so far."""
+        n = self.k
+        arrays = {name: self._rows[:n, j] for j, name in enumerate(_ROW_NAMES)}
+        arrays["command"] = self._commands[:n]
+        arrays["actuator"] = self._surfaces[:n]
+        return MissionResult(self.config, arrays, self.ended)
+
+
 def fly_route(controller: AttitudeController, config: RouteConfig | None = None,
               progress: Callable[[float], None] | None = None) -> MissionResult:
     """Fly ``config``'s route with ``controller`` for attitude; ``progress(fraction)`` is called
     about once per simulated 10 s."""
-    cfg = config or RouteConfig()
-    waypoints = cfg.waypoints()
-    dt = 1.0 / cfg.control_rate_hz
-    steps = math.ceil(cfg.duration_s * cfg.control_rate_hz)
-    core = FlightCore(cfg.core_config())
-    first_leg = waypoints[1] - waypoints[0]
-    heading_deg = math.degrees(math.atan2(first_leg[1], first_leg[0]))
-    measurement = core.reset(cfg.seed, altitude_m=cfg.altitude_m, airspeed_eas_mps=cfg.eas_mps,
-                             heading_deg=heading_deg)
-    schedule = GainSchedule()
-    tecs, l1 = TECS(cfg.tecs), L1Guidance(cfg.l1)
-    tecs.reset()
+    flight = RouteFlight(config)
     controller.reset()
-    leg = 0
-    names = ("time_s", "north_m", "east_m", "altitude_m", "roll_rad", "pitch_rad", "heading_rad", "eas_mps",
-             "beta_rad", "roll_cmd_rad", "pitch_cmd_rad", "eas_cmd_mps", "cross_track_m", "leg", "turbulence")
-    rows = np.full((steps, len(names)), np.nan)
-    commands = np.full((steps, 4), np.nan)
-    surfaces = np.full((steps, 4), np.nan)
-    ended = None
-    n_done = 0
-    for k in range(steps):
-        nav = core.navigation()
-        a_wp, b_wp = waypoints[leg % len(waypoints)], waypoints[(leg + 1) % len(waypoints)]
-        ground_speed = math.hypot(nav.v_north_mps, nav.v_east_mps)
-        turn_radius = ground_speed ** 2 / (G_MPS2 * math.tan(cfg.l1.roll_limit_rad))
-        to_b = math.hypot(b_wp[0] - nav.north_m, b_wp[1] - nav.east_m)
-        if to_b < turn_radius:
-            leg += 1
-            a_wp, b_wp = waypoints[leg % len(waypoints)], waypoints[(leg + 1) % len(waypoints)]
-        guidance = l1.update((nav.north_m, nav.east_m), (nav.v_north_mps, nav.v_east_mps), a_wp, b_wp)
-        point = schedule.at(measurement[0])
-        energy = tecs.update(dt, measurement[0], -nav.v_down_mps, nav.tas_mps, nav.eas_to_tas, measurement[2],
-                             cfg.altitude_m, cfg.eas_mps, point.throttle_trim, point.tas_accel_per_throttle_mps2,
-                             math.radians(point.pitch_trim_deg))
-        setpoint = np.array([guidance.roll_rad, energy.pitch_rad, cfg.eas_mps])
-        command = np.array(controller.update(dt, measurement, setpoint), dtype=float)
-        command[3] = energy.throttle  # TECS's throttle replaces the attitude controller's
-        turbulent = leg in cfg.turbulence_legs
-        core.turbulence_gain = 1.0 if turbulent else 0.0
-        s = core.last_true_state
-        rows[k] = (k * dt, nav.north_m, nav.east_m, s[0], s[1], s[2], nav.heading_rad, s[6], s[8], setpoint[0],
-                   setpoint[1], setpoint[2], guidance.cross_track_m, leg, float(turbulent))
-        commands[k] = command
-        surfaces[k] = (math.degrees(s[9]), math.degrees(s[10]), math.degrees(s[11]), s[12])
-        measurement = core.step(command)
-        n_done = k + 1
-        ended = core.envelope_violation()
-        if ended:
-            break
-        if progress is not None and k % int(10 * cfg.control_rate_hz) == 0:
-            progress(k / steps)
-    arrays = {name: rows[:n_done, j] for j, name in enumerate(names)}
-    arrays["command"] = commands[:n_done]
-    arrays["actuator"] = surfaces[:n_done]
-    return MissionResult(cfg, arrays, ended)
+    every = int(10 * flight.config.control_rate_hz)
+    while not flight.done:
+        measurement, setpoint = flight.demand()
+        flight.advance(controller.update(flight.dt_s, measurement, setpoint))
+        if progress is not None and (flight.k - 1) % every == 0:
+            progress((flight.k - 1) / flight.steps)
+    return flight.result()
 
 
 def result_to_npz(result: MissionResult, path) -> None:
