@@ -1,0 +1,393 @@
+"""The flight computer's side of the loop bench: the aircraft model, the TECS + L1 autopilot, the
+frame clock, the failsafe, and the measurements of the loop.
+
+Each control frame (25 Hz) the plant flies the previous frame's command, takes the INS
+measurement and the autopilot's demands (``missions.RouteFlight``: the same code as the
+in-process route flight), sends them to the controller process over the serial line, and waits
+for the answer:
+
+- **lockstep**: it waits for each answer (or learns that the line lost the frame), so the flight
+  is deterministic and as fast as the CPU allows;
+- **realtime**: a frame clock ticks every 40 ms of wall time; an answer that has not arrived by the
+  next tick is a missed deadline.
+
+The failsafe, in the spirit of PX4's ``COM_OF_LOSS_T`` and ArduPilot's ``FS_SHORT_TIMEOUT``: a
+missing answer holds the last command for up to ``timeout_frames`` frames (3 = 120 ms); after
+that the plant's own gain-scheduled PID flies, until the controller has answered on time for
+``recover_frames`` frames in a row. Every hand-over is logged with its flight time.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import select
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from jsbsim_env.bench.link import EmulatedLine, Faults, open_pty
+from jsbsim_env.bench.node import percentiles_ms
+from jsbsim_env.bench.wire import PLANT_SYSTEM_ID, decode_command, encode_state, heartbeat, is_crc_error, new_link
+from jsbsim_env.controllers.pid import PIDAttitudeController
+from jsbsim_env.missions import MissionResult, RouteConfig, RouteFlight
+
+NETWORK, HOLD, PID = 0, 1, 2
+SOURCE_NAMES = ("network", "hold", "pid")
+COMMAND_BYTES = 40  # a HIL_ACTUATOR_CONTROLS frame is 44 bytes; shorter chunks are heartbeats or pieces
+
+
+def bench_route(duration_s: float = 60.0, seed: int = 0) -> RouteConfig:
+    """The bench's flight: the 10 km route's conditions (report Figs. 11-14) with turbulence from
+    the first leg on, so that a short flight is the turbulent leg."""
+    return RouteConfig(altitude_m=10_000.0, duration_s=duration_s, turbulence_legs=tuple(range(64)), seed=seed)
+
+
+class Failsafe:
+    """Who flies each frame: the network's fresh command, the last one held, or the plant's PID."""
+
+    def __init__(self, timeout_frames: int = 3, recover_frames: int = 5):
+        if timeout_frames < 0 or recover_frames < 1:
+            raise ValueError("timeout_frames must be >= 0 and recover_frames >= 1")
+        self.timeout_frames, self.recover_frames = timeout_frames, recover_frames
+        self.pid_in_charge = False
+        self.missed_in_row = 0
+        self.healthy_in_row = 0
+        self.events: list[dict] = []
+
+    def decide(self, fresh: bool, time_s: float) -> int:
+        """The source of this frame's command given whether the network's answer came in time."""
+        if fresh:
+            self.missed_in_row = 0
+            self.healthy_in_row += 1
+            if self.pid_in_charge and self.healthy_in_row >= self.recover_frames:
+                self.pid_in_charge = False
+                self.events.append({"time_s": time_s, "event": "network_resumed"})
+            return PID if self.pid_in_charge else NETWORK
+        self.healthy_in_row = 0
+        self.missed_in_row += 1
+        if not self.pid_in_charge and self.missed_in_row > self.timeout_frames:
+            self.pid_in_charge = True
+            self.events.append({"time_s": time_s, "event": "pid_takeover"})
+        return PID if self.pid_in_charge else HOLD
+
+    @property
+    def takeovers(self) -> int:
+        return sum(e["event"] == "pid_takeover" for e in self.events)
+
+
+@dataclass
+class BenchConfig:
+    """One bench flight. ``device`` None: a pseudo-terminal pair and a controller process started
+    here; a path: a real port, with the controller process started by the user elsewhere."""
+
+    mode: str = "realtime"  # or "lockstep"
+    controller: str = "policy"  # or "pid"
+    policy: str | None = None
+    duration_s: float = 60.0
+    baud: int = 115_200
+    faults: Faults = field(default_factory=Faults)
+    device: str | None = None
+    seed: int = 0
+    rate_hz: float = 25.0
+    timeout_frames: int = 3
+    recover_frames: int = 5
+    lockstep_wait_s: float = 2.0  # lockstep: an answer not here after this long (wall time) was lost
+    start_timeout_s: float = 120.0  # the controller process's first heartbeat, wall time
+
+    def __post_init__(self):
+        if self.mode not in ("realtime", "lockstep"):
+            raise ValueError(f"mode must be 'realtime' or 'lockstep', got {self.mode!r}")
+        if self.controller not in ("policy", "pid"):
+            raise ValueError(f"controller must be 'policy' or 'pid', got {self.controller!r}")
+        if not (self.duration_s > 0 and math.isfinite(self.duration_s)):
+            raise ValueError(f"duration must be positive, got {self.duration_s} s")
+        if self.baud <= 0:
+            raise ValueError(f"baud must be positive, got {self.baud}")
+        if self.mode == "lockstep" and (self.faults.delay_ms or self.faults.stall_at_s is not None):
+            raise ValueError("delay_ms and stall are real-time faults: lockstep waits for every answer")
+
+
+@dataclass
+class BenchResult:
+    summary: dict
+    frames: dict[str, np.ndarray]  # per frame: time_s, latency_ms, fresh, source, tick_late_ms
+    mission: MissionResult
+
+
+class _ControllerProcess:
+    """The controller node in a child process on the pty's slave side."""
+
+    def __init__(self, cfg: BenchConfig, device: str, stats_path: Path):
+        cmd = [sys.executable, "-m", "jsbsim_env.bench.node", "--device", device, "--baud", str(cfg.baud),
+               "--controller", cfg.controller, "--rate-hz", str(cfg.rate_hz), "--stats", str(stats_path)]
+        if cfg.policy:
+            cmd += ["--policy", str(cfg.policy)]
+        f = cfg.faults
+        if f.stall_at_s is not None:
+            cmd += ["--faults", f"stall_at={f.stall_at_s},stall_s={f.stall_s}"]
+        self.stats_path = stats_path
+        self.stderr = tempfile.TemporaryFile()  # noqa: SIM115 - open while the process lives
+        env = {**os.environ, "OMP_NUM_THREADS": "1"}
+        self.proc = subprocess.Popen(cmd, stderr=self.stderr, env=env)
+
+    def check_alive(self) -> None:
+        if self.proc.poll() is not None:
+            self.stderr.seek(0)
+            tail = self.stderr.read().decode(errors="replace")[-2000:]
+            raise RuntimeError(f"the controller process exited with code {self.proc.returncode}:\n{tail}")
+
+    def stop(self) -> dict:
+        if self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(10)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        try:
+            return json.loads(self.stats_path.read_text())
+        except (OSError, ValueError):
+            return {}
+
+
+class Plant:
+    """Runs one bench flight (``run``)."""
+
+    def __init__(self, cfg: BenchConfig):
+        self.cfg = cfg
+        self.link = new_link(PLANT_SYSTEM_ID)
+        self.frame_s = 1.0 / cfg.rate_hz
+        self.answers: dict[int, tuple[float, np.ndarray]] = {}  # frame time (us) -> (arrival, command)
+        self.counts = {"crc_errors": 0, "bad_bytes": 0, "heartbeats": 0, "late_answers": 0}
+        self.controller_seen = False
+
+    # ------------------------------------------------------------------ receiving
+    def _receive(self, line: EmulatedLine, now: float, waiting_for: int | None = None) -> None:
+        data = line.poll(now, COMMAND_BYTES)
+        if not data:
+            return
+        for message in self.link.parse_buffer(data) or []:
+            kind = message.get_type()
+            if kind == "BAD_DATA":
+                self.counts["crc_errors" if is_crc_error(message) else "bad_bytes"] += 1
+            elif kind == "HEARTBEAT":
+                self.counts["heartbeats"] += 1
+                self.controller_seen = True
+            elif kind == "HIL_ACTUATOR_CONTROLS":
+                time_us, command = decode_command(message)
+                if np.all(np.isfinite(command)):
+                    self.answers[time_us] = (now, command)
+                else:
+                    self.counts["bad_bytes"] += 1
+
+    def _wait(self, fd: int, line: EmulatedLine, until: float) -> None:
+        """Receive until wall time ``until`` (real time) or until something arrives."""
+        now = time.perf_counter()
+        due = line.next_event_s()
+        wake = min(until, due) if due is not None else until
+        if wake > now:
+            select.select([fd], [], [], wake - now)
+        self._receive(line, time.perf_counter())
+
+    # ------------------------------------------------------------------ the flight
+    def run(self, progress=None) -> BenchResult:
+        cfg = self.cfg
+        stats_dir = tempfile.TemporaryDirectory()
+        process = None
+        port = None
+        if cfg.device is None:
+            master, slave, path = open_pty()
+            fd = master
+            process = _ControllerProcess(cfg, path, Path(stats_dir.name) / "controller.json")
+        else:
+            import serial
+
+            try:
+                port = serial.Serial(cfg.device, baudrate=cfg.baud, timeout=0)
+            except (serial.SerialException, OSError) as exc:
+                raise RuntimeError(f"cannot open serial device {cfg.device}: {exc}") from exc
+            fd, slave = port.fileno(), None
+        line = EmulatedLine(fd, cfg.baud, cfg.faults, seed=cfg.seed,
+                            emulate_timing=cfg.mode == "realtime" and cfg.device is None)
+        try:
+            self._await_controller(fd, line, process)
+            result = self._fly(fd, line, process, progress)
+        finally:
+            controller_stats = process.stop() if process is not None else {}
+            if cfg.device is None:
+                os.close(master)
+                os.close(slave)
+            elif port is not None:
+                port.close()
+            stats_dir.cleanup()
+        return self._summarise(*result, line, controller_stats)
+
+    def _await_controller(self, fd: int, line: EmulatedLine, process) -> None:
+        """Heartbeats until the controller's first one arrives (its process imports and loads first)."""
+        deadline = time.perf_counter() + self.cfg.start_timeout_s
+        next_heartbeat = 0.0
+        while not self.controller_seen:
+            now = time.perf_counter()
+            if now > deadline:
+                raise RuntimeError(f"no heartbeat from the controller within {self.cfg.start_timeout_s} s")
+            if process is not None:
+                process.check_alive()
+            if now >= next_heartbeat:
+                line.send_raw(heartbeat(self.link, plant=True), now)
+                next_heartbeat = now + 1.0
+            self._wait(fd, line, now + 0.1)
+
+    def _fly(self, fd: int, line: EmulatedLine, process, progress):
+        cfg = self.cfg
+        flight = RouteFlight(bench_route(cfg.duration_s, cfg.seed))
+        pid = PIDAttitudeController()
+        failsafe = Failsafe(cfg.timeout_frames, cfg.recover_frames)
+        n = flight.steps
+        log = {"time_s": np.full(n, np.nan), "latency_ms": np.full(n, np.nan), "fresh": np.zeros(n, bool),
+               "source": np.full(n, -1), "tick_late_ms": np.full(n, np.nan)}
+        realtime = cfg.mode == "realtime"
+        last_network = None
+        start = time.perf_counter()
+        k = 0
+        measurement, setpoint = flight.demand()
+        while True:
+            tick = start + k * self.frame_s
+            time_us = round(k * self.frame_s * 1e6)
+            line.flight_time_s = flight_time = k * self.frame_s
+            nav = flight.core.navigation()
+            burst = encode_state(self.link, time_us, measurement, setpoint, nav.heading_rad,
+                                 math.hypot(nav.v_north_mps, nav.v_east_mps), -nav.v_down_mps)
+            if k % round(cfg.rate_hz) == 0:
+                burst += heartbeat(self.link, plant=True)
+            while realtime and time.perf_counter() < tick:  # the frame clock; receive meanwhile
+                self._wait(fd, line, tick)
+            sent_at = time.perf_counter()
+            log["tick_late_ms"][k] = (sent_at - tick) * 1000.0 if realtime else 0.0
+            delivered = line.send(burst, sent_at)
+            # Wait for this frame's answer: until the next tick, or (lockstep) until it comes.
+            if realtime:
+                deadline = tick + self.frame_s
+                while time_us not in self.answers and time.perf_counter() < deadline:
+                    self._wait(fd, line, deadline)
+            else:
+                give_up = time.perf_counter() + cfg.lockstep_wait_s
+                errors_before = self.counts["crc_errors"] + self.counts["bad_bytes"]
+                lost_before = sum(line.counts.values())
+                while delivered and time_us not in self.answers:
+                    if (self.counts["crc_errors"] + self.counts["bad_bytes"] > errors_before
+                            or sum(line.counts.values()) > lost_before or time.perf_counter() > give_up):
+                        break  # the answer was lost on the line, or the controller is silent
+                    self._wait(fd, line, time.perf_counter() + 0.05)
+            if process is not None:
+                process.check_alive()
+            # Answers to earlier frames came after their deadline: late, and of no use now.
+            self.counts["late_answers"] += sum(t < time_us for t in self.answers)
+            answer = self.answers.pop(time_us, None)
+            self.answers = {t: a for t, a in self.answers.items() if t > time_us}
+            fresh = answer is not None
+            if fresh:
+                log["latency_ms"][k] = (answer[0] - sent_at) * 1000.0
+            source = failsafe.decide(fresh, flight_time)
+            if source == HOLD and last_network is None:
+                source = PID  # nothing to hold yet: the PID flies until the first answer
+            if source == NETWORK:
+                command = last_network = answer[1]
+            elif source == HOLD:
+                command = last_network
+            else:
+                if failsafe.events and failsafe.events[-1] == {"time_s": flight_time, "event": "pid_takeover"}:
+                    pid.reset()  # from its trim: the integrators of a controller that was not flying mean nothing
+                command = pid.update(self.frame_s, measurement, setpoint)
+            log["time_s"][k], log["fresh"][k], log["source"][k] = flight_time, fresh, source
+            flight.advance(command)
+            k += 1
+            if progress is not None and k % round(cfg.rate_hz) == 0:
+                progress(k / n)
+            if flight.done:
+                break
+            measurement, setpoint = flight.demand()
+        wall_s = time.perf_counter() - start
+        frames = {key: v[:k] for key, v in log.items()}
+        return frames, flight.result(), failsafe, wall_s
+
+    # ------------------------------------------------------------------ the figures
+    def _summarise(self, frames: dict, mission: MissionResult, failsafe: Failsafe, wall_s: float,
+                   line: EmulatedLine, controller: dict) -> BenchResult:
+        cfg = self.cfg
+        n = len(frames["time_s"])
+        latency = frames["latency_ms"][np.isfinite(frames["latency_ms"])] / 1000.0
+        answered = int(np.isfinite(frames["latency_ms"]).sum())
+        metrics = mission.metrics() if n else {}
+        summary = {
+            "mode": cfg.mode, "controller": cfg.controller, "baud": cfg.baud, "rate_hz": cfg.rate_hz,
+            "device": cfg.device or "pty", "faults": {k: v for k, v in asdict(cfg.faults).items()},
+            "seed": cfg.seed, "duration_s": cfg.duration_s, "wall_s": wall_s,
+            "frames": n,
+            "missed_deadlines": int(n - frames["fresh"].sum()),
+            "missed_fraction": float(1.0 - frames["fresh"].mean()) if n else None,
+            "latency_ms": percentiles_ms(list(latency)),
+            "latency_jitter_ms": float(np.std(latency) * 1000.0) if latency.size else None,
+            "tick_late_ms": percentiles_ms(list(frames["tick_late_ms"][frames["tick_late_ms"] >= 0] / 1000.0)),
+            "dropped_frames": n - answered,
+            "late_answers": self.counts["late_answers"],
+            "crc_errors": self.counts["crc_errors"] + int(controller.get("crc_errors", 0)),
+            "crc_errors_at_plant": self.counts["crc_errors"],
+            "crc_errors_at_controller": controller.get("crc_errors"),
+            "bad_bytes": self.counts["bad_bytes"] + int(controller.get("bad_bytes", 0)),
+            "line_faults_injected": dict(line.counts),
+            "failsafe_takeovers": failsafe.takeovers,
+            "failsafe_events": failsafe.events,
+            "frames_by_source": {name: int((frames["source"] == i).sum()) for i, name in enumerate(SOURCE_NAMES)},
+            "ended_early": mission.ended_early,
+            "controller_compute_ms": controller.get("compute_ms"),
+            "controller_counts": {k: v for k, v in controller.items() if k != "compute_ms"},
+            "tracking_rmse": {k[len("rmse_"):]: v for k, v in metrics.items() if k.startswith("rmse_")},
+        }
+        return BenchResult(summary, frames, mission)
+
+
+def run_bench(cfg: BenchConfig, progress=None) -> BenchResult:
+    """Fly one bench flight; see ``BenchConfig`` and the module docstring."""
+    return Plant(cfg).run(progress)
+
+
+def plot_bench(result: BenchResult, path: Path | str) -> None:
+    """Latency per frame against the deadline, who flew, and the tracking errors."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    f, a = result.frames, result.mission.arrays
+    fig, ax = plt.subplots(3, 1, figsize=(10, 8), sharex=True)
+    frame_ms = 1000.0 / result.summary["rate_hz"]
+    ax[0].plot(f["time_s"], f["latency_ms"], ".", ms=2, label="state sent -> command received")
+    ax[0].axhline(frame_ms, color="r", lw=0.8, label=f"deadline ({frame_ms:.0f} ms)")
+    ax[0].set_ylabel("latency, ms")
+    ax[0].legend(loc="upper right", fontsize=8)
+    ax[1].step(f["time_s"], f["source"], where="post")
+    ax[1].set_yticks(range(len(SOURCE_NAMES)), SOURCE_NAMES)
+    ax[1].set_ylabel("command from")
+    t = a["time_s"]
+    for name, err in (("roll", np.degrees(a["roll_rad"] - a["roll_cmd_rad"])),
+                      ("pitch", np.degrees(a["pitch_rad"] - a["pitch_cmd_rad"])),
+                      ("sideslip", np.degrees(a["beta_rad"]))):
+        ax[2].plot(t, err, lw=0.8, label=name)
+    ax[2].set_ylabel("error, deg")
+    ax[2].set_xlabel("flight time, s")
+    ax[2].legend(loc="upper right", fontsize=8)
+    s = result.summary
+    fig.suptitle(f"loop bench: {s['controller']}, {s['mode']}, {s['baud']} baud")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+__all__ = ["BenchConfig", "BenchResult", "Failsafe", "Plant", "bench_route", "plot_bench", "run_bench"]

@@ -1,0 +1,133 @@
+"""The loop bench: the attitude controller in its own process over a serial line (MAVLink v2 on a
+pseudo-terminal, or a real port), against the aircraft model in real time or in lockstep.
+
+    python scripts/loop_bench.py                          # shipped policy, real time, 60 s
+    python scripts/loop_bench.py --mode lockstep --controller pid --json
+    python scripts/loop_bench.py --faults drop=0.05,corrupt=0.01,disconnect_at=20
+
+Flies the 10 km route's turbulent leg (``jsbsim_env.bench.plant.bench_route``), then flies the
+same route in this process with the same controller and seed, and prints the loop's figures
+(latency, missed deadlines, dropped frames, CRC errors, failsafe hand-overs, tracking RMSE beside
+the in-process run's). Writes ``summary.json``, ``frames.npz`` and ``loop_bench.png`` to ``--out``.
+With ``--device`` the plant opens that port and waits for a controller started elsewhere with
+``python -m jsbsim_env.bench.node --device PORT``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def parse_args(argv=None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p.add_argument("--mode", choices=("realtime", "lockstep"), default="realtime",
+                   help="realtime: 25 Hz frame clock with deadlines; lockstep: wait for every answer (deterministic)")
+    p.add_argument("--controller", choices=("policy", "pid"), default="policy", help="the controller process flies this")
+    p.add_argument("--policy", default=None, help="policy file (.pt); the shipped policy when omitted")
+    p.add_argument("--duration", type=float, default=60.0, help="flight time, s")
+    p.add_argument("--baud", type=int, default=115_200, help="line rate, bit/s (10 bits a byte)")
+    p.add_argument("--faults", default="",
+                   help="comma-separated: drop=P, corrupt=P (per frame and direction), delay_ms=MS, "
+                        "disconnect_at=S, disconnect_s=S, stall_at=S, stall_s=S (flight time, s)")
+    p.add_argument("--device", default=None, help="a real serial port; the controller runs elsewhere (module docstring)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the flight (turbulence, noise) and of the faults")
+    p.add_argument("--timeout-frames", type=int, default=3, help="frames the last command is held before the PID flies")
+    p.add_argument("--recover-frames", type=int, default=5,
+                   help="answers on time in a row before the controller flies again")
+    p.add_argument("--no-compare", action="store_true", help="skip the in-process flight of the same route")
+    p.add_argument("--out", default="runs/loop_bench", help="folder for summary.json, frames.npz, loop_bench.png")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout (messages go to stderr)")
+    return p.parse_args(argv)
+
+
+def in_process(args) -> dict:
+    """The same route, controller and seed flown in this process (``missions.fly_route``)."""
+    from jsbsim_env.bench.node import make_controller
+    from jsbsim_env.bench.plant import bench_route
+    from jsbsim_env.missions import fly_route
+
+    result = fly_route(make_controller(args.controller, args.policy), bench_route(args.duration, args.seed))
+    return {"tracking_rmse": {k[len("rmse_"):]: v for k, v in result.metrics().items() if k.startswith("rmse_")},
+            "ended_early": result.ended_early}
+
+
+def _json_safe(x):
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    if isinstance(x, dict):
+        return {k: _json_safe(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_json_safe(v) for v in x]
+    return x
+
+
+def main(argv=None) -> int:
+    args = parse_args(argv)
+    from jsbsim_env.bench.link import Faults
+    from jsbsim_env.bench.plant import BenchConfig, plot_bench, run_bench
+
+    try:
+        cfg = BenchConfig(mode=args.mode, controller=args.controller, policy=args.policy, duration_s=args.duration,
+                          baud=args.baud, faults=Faults.parse(args.faults), device=args.device, seed=args.seed,
+                          timeout_frames=args.timeout_frames, recover_frames=args.recover_frames)
+    except ValueError as exc:
+        print(f"loop_bench: {exc}", file=sys.stderr)
+        return 2
+    from tqdm import tqdm
+
+    bar = tqdm(total=100, desc=f"{args.mode} flight", unit="%", file=sys.stderr, leave=False)
+
+    def progress(fraction: float) -> None:
+        bar.n = round(100 * fraction)
+        bar.refresh()
+
+    started = time.perf_counter()
+    try:
+        result = run_bench(cfg, progress)
+    except RuntimeError as exc:
+        print(f"loop_bench: {exc}", file=sys.stderr)
+        return 1
+    finally:
+        bar.close()
+    summary = dict(result.summary)
+    summary["bench_wall_s"] = time.perf_counter() - started
+    if not args.no_compare:
+        ref = in_process(args)
+        ratio = {k: (summary["tracking_rmse"][k] / v if v else None) for k, v in ref["tracking_rmse"].items()}
+        summary["in_process"] = {**ref, "rmse_ratio": ratio}
+    summary = _json_safe(summary)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "summary.json").write_text(json.dumps(summary, indent=1))
+    np.savez_compressed(out / "frames.npz", **result.frames)
+    plot_bench(result, out / "loop_bench.png")
+    if args.json:
+        print(json.dumps(summary, indent=1))
+    else:
+        s = summary
+        lat = s["latency_ms"]
+        print(f"{s['frames']} frames, {s['mode']}, {s['controller']}: missed deadlines {s['missed_deadlines']}, "
+              f"latency p50/p99/max {lat['p50']:.1f}/{lat['p99']:.1f}/{lat['max']:.1f} ms, dropped {s['dropped_frames']}, "
+              f"CRC errors {s['crc_errors']}, failsafe take-overs {s['failsafe_takeovers']}, "
+              f"ended early: {s['ended_early'] or 'no'}")
+        rm = s["tracking_rmse"]
+        line = "tracking RMSE roll/pitch/EAS/sideslip " + " / ".join(f"{rm[k]:.3f}" for k in rm)
+        if "in_process" in s:
+            line += "  (in process: " + " / ".join(f"{v:.3f}" for v in s["in_process"]["tracking_rmse"].values()) + ")"
+        print(line)
+        for e in s["failsafe_events"]:
+            print(f"  {e['time_s']:8.2f} s  {e['event']}")
+        print(f"written to {out}/")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
