@@ -253,6 +253,7 @@ class Plant:
         log = {"time_s": np.full(n, np.nan), "latency_ms": np.full(n, np.nan), "fresh": np.zeros(n, bool),
                "source": np.full(n, -1), "tick_late_ms": np.full(n, np.nan)}
         realtime = cfg.mode == "realtime"
+        sent_times = np.full(n, np.nan)
         last_network = None
         start = time.perf_counter()
         k = 0
@@ -268,7 +269,7 @@ class Plant:
                 burst += heartbeat(self.link, plant=True)
             while realtime and time.perf_counter() < tick:  # the frame clock; receive meanwhile
                 self._wait(fd, line, tick)
-            sent_at = time.perf_counter()
+            sent_at = sent_times[k] = time.perf_counter()
             log["tick_late_ms"][k] = (sent_at - tick) * 1000.0 if realtime else 0.0
             delivered = line.send(burst, sent_at)
             # Wait for this frame's answer: until the next tick, or (lockstep) until it comes.
@@ -287,8 +288,13 @@ class Plant:
                     self._wait(fd, line, time.perf_counter() + 0.05)
             if process is not None:
                 process.check_alive()
-            # Answers to earlier frames came after their deadline: late, and of no use now.
-            self.counts["late_answers"] += sum(t < time_us for t in self.answers)
+            # Answers to earlier frames came after their deadline: late, and of no use now (their
+            # latency still counts).
+            for t, (arrived, _) in self.answers.items():
+                j = round(t / (self.frame_s * 1e6))
+                if t < time_us and 0 <= j < k and math.isnan(log["latency_ms"][j]):
+                    self.counts["late_answers"] += 1
+                    log["latency_ms"][j] = (arrived - sent_times[j]) * 1000.0
             answer = self.answers.pop(time_us, None)
             self.answers = {t: a for t, a in self.answers.items() if t > time_us}
             fresh = answer is not None
@@ -323,7 +329,7 @@ class Plant:
         cfg = self.cfg
         n = len(frames["time_s"])
         latency = frames["latency_ms"][np.isfinite(frames["latency_ms"])] / 1000.0
-        answered = int(np.isfinite(frames["latency_ms"]).sum())
+        answered = int(np.isfinite(frames["latency_ms"]).sum())  # on time or late
         metrics = mission.metrics() if n else {}
         summary = {
             "mode": cfg.mode, "controller": cfg.controller, "baud": cfg.baud, "rate_hz": cfg.rate_hz,

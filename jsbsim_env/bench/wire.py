@@ -1,28 +1,10 @@
 """MAVLink v2 messages of the loop bench: what crosses the serial line, in which units.
 
-Every control frame the flight computer (the plant side) sends one burst of five standard messages,
-and the attitude controller answers with one. pymavlink packs them, numbers them and checks their
-CRC; nothing here is a home-made format.
-
-| direction | message (id) | field | carries | unit, scaling |
-|---|---|---|---|---|
-| plant -> controller | ATTITUDE (30), opens the burst | time_boot_ms | frame time (k x control interval) | ms |
-| | | roll, pitch, yaw | roll, pitch (measured, INS), heading | rad |
-| | | rollspeed, pitchspeed, yawspeed | p, q, r (body rates) | rad/s |
-| | VFR_HUD (74) | airspeed | V_eas | m/s |
-| | | alt | altitude above sea level | m |
-| | | groundspeed, climb, heading, throttle | for monitoring only | m/s, m/s, deg, % |
-| | AOA_SSA (11020, ArduPilot dialect) | AOA, SSA | angle of attack, sideslip | deg |
-| | ACTUATOR_OUTPUT_STATUS (375) | actuator[0..3] | measured aileron, elevator, rudder positions; throttle | rad, rad, rad, 0..1 |
-| | NAV_CONTROLLER_OUTPUT (62), closes the burst | nav_roll, nav_pitch | roll and pitch demands (L1, TECS) | deg |
-| | | aspd_error | EAS demand minus the V_eas above | m/s |
-| controller -> plant | HIL_ACTUATOR_CONTROLS (93) | time_usec | the frame time it answers (echo) | us |
-| | | controls[0..3] | aileron, elevator, rudder, throttle commands | aileron/30 deg, elevator/30 deg, rudder/20 deg in [-1, 1]; throttle 0..1 |
-| both | HEARTBEAT (0) | type | fixed wing (plant), onboard controller (controller) | once a second |
-
-Axes are the body axes of SPEC section 2 (x forward, y right, z down); angles positive as there.
-HIL_STATE_QUATERNION, the usual simulator state message, is not used: it has no angle of attack,
-sideslip or actuator positions, and it quantises altitude to millimetres and airspeed to cm/s.
+Every control frame the flight computer (the plant side) sends one burst of five standard messages
+(ATTITUDE, VFR_HUD, AOA_SSA, ACTUATOR_OUTPUT_STATUS, NAV_CONTROLLER_OUTPUT) and the attitude
+controller answers with one HIL_ACTUATOR_CONTROLS; both send a HEARTBEAT once a second. pymavlink
+packs them, numbers them and checks their CRC. The fields, units, axes and scaling are in one
+table, in ``docs/loop_bench.md``; this module is that table in code.
 
 Every float crosses as float32. ``wire_state`` and ``wire_command`` apply exactly the rounding a
 round trip over the line applies, so an in-process run through them (``WireRounded``) is what the
