@@ -214,6 +214,7 @@ class Plant:
             except (serial.SerialException, OSError) as exc:
                 raise RuntimeError(f"cannot open serial device {cfg.device}: {exc}") from exc
             fd, slave = port.fileno(), None
+            os.set_blocking(fd, False)
         line = EmulatedLine(fd, cfg.baud, cfg.faults, seed=cfg.seed,
                             emulate_timing=cfg.mode == "realtime" and cfg.device is None)
         try:
