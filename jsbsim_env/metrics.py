@@ -9,6 +9,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -51,6 +52,25 @@ def smoothness(signal: np.ndarray, sample_rate_hz: float) -> float:
         amplitudes[-1] /= 2.0  # so does the Nyquist bin of an even length
     freqs = np.fft.rfftfreq(n, d=1.0 / sample_rate_hz)
     return float(2.0 / (n * sample_rate_hz) * np.sum(amplitudes * freqs))
+
+
+def json_ready(obj, why=None, nulls: dict | None = None, path: str = ""):
+    """``obj`` (nested dicts, lists, numbers) with every NaN or infinity replaced by None, since
+    JSON has neither; ``nulls``, where given, receives each replaced value's path and
+    ``why(path)``, the reason to print beside it."""
+    if isinstance(obj, (float, np.floating)):
+        if math.isfinite(obj):
+            return float(obj)
+        if nulls is not None:
+            nulls[path] = why(path) if why else "not a finite number"
+        return None
+    if isinstance(obj, (np.integer, np.bool_)):
+        return obj.item()
+    if isinstance(obj, dict):
+        return {k: json_ready(v, why, nulls, f"{path}.{k}" if path else str(k)) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple, np.ndarray)):
+        return [json_ready(v, why, nulls, f"{path}[{i}]") for i, v in enumerate(obj)]
+    return obj
 
 
 @dataclass

@@ -68,7 +68,7 @@ ACTION_TOLERANCE = 1e-6
 
 
 class ActionError(ValueError):
-    """An action that is not finite or lies outside [-1, 1]."""
+    """An action that is not finite, lies outside [-1, 1], or has the wrong shape."""
 
 
 def action_to_command(action: np.ndarray) -> np.ndarray:
@@ -254,7 +254,11 @@ class AttitudeTaskBatch:
         reward), terminated and truncated flags, and termination codes (``core.TERMINATION_CAUSES``).
         The caller resets the aircraft whose episode ended.
         """
-        rows = np.asarray(actions, dtype=float).reshape(self.num_envs, ACTION_SIZE).tolist()
+        actions = np.asarray(actions, dtype=float)
+        if actions.shape != (self.num_envs, ACTION_SIZE):
+            raise ActionError(f"actions must have shape ({self.num_envs}, {ACTION_SIZE}): one row of aileron, "
+                              f"elevator, rudder, throttle per aircraft; got shape {actions.shape}")
+        rows = actions.tolist()
         hi = 1.0 + ACTION_TOLERANCE
         for i, a in enumerate(rows):
             if not all(-hi <= x <= hi for x in a):  # NaN fails too
@@ -353,7 +357,11 @@ class AttitudeTask:
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict]:
         b = self.batch
         goal = b.goals[0].copy()
-        obs, terms, terminated, truncated, codes = b.step(np.asarray(action, dtype=float)[None])
+        action = np.asarray(action, dtype=float)
+        if action.shape != (ACTION_SIZE,):
+            raise ActionError(f"action must have shape ({ACTION_SIZE},): aileron, elevator, rudder, throttle; "
+                              f"got shape {action.shape}")
+        obs, terms, terminated, truncated, codes = b.step(action[None])
         info = {name: float(terms[0, j]) for j, name in enumerate(REWARD_TERMS)}
         info.update(termination=termination_reason(int(codes[0]), b.config.core.envelope) or "",
                     time_s=self.core.time_s, goal=goal, true_state=np.array(b.states[0]))

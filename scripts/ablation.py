@@ -110,7 +110,8 @@ def markdown(groups: dict[str, list[dict]]) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("runs", type=Path, nargs="+", help="run folders, each with best_policy.pt")
     parser.add_argument("--episodes", type=int, default=50, help="evaluation-suite episodes per run")
     parser.add_argument("--pid", type=Path, metavar="DIR", help="also score the PID, its flights in DIR")

@@ -97,12 +97,13 @@ def processes_rate(processes: int, batch: int, seconds: float, seed: int) -> flo
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--seconds", type=float, default=100.0, help="simulated seconds per measurement and aircraft")
-    parser.add_argument("--rounds", type=int, default=3)
-    parser.add_argument("--batch", type=int, nargs="+", default=[8, 32])
+    parser.add_argument("--rounds", type=int, default=3, help="repeats of each measurement; the median is reported")
+    parser.add_argument("--batch", type=int, nargs="+", default=[8, 32], help="aircraft per batched environment")
     parser.add_argument("--processes", type=int, default=2, help="processes for the multi-process figure (0: skip)")
-    parser.add_argument("--json", action="store_true")
+    parser.add_argument("--json", action="store_true", help="print the figures as JSON")
     args = parser.parse_args()
     torch.set_num_threads(1)
     TrimTable.shared().fill()  # trims are cached per process; keep their first computation out of the timings

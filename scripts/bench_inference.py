@@ -37,10 +37,11 @@ def latencies_us(runtime: PolicyRuntime, steps: int, rng: np.random.Generator) -
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--policy", type=Path, help="policy file (default: the shipped controller)")
-    parser.add_argument("--steps", type=int, default=5000)
-    parser.add_argument("--json", action="store_true")
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    parser.add_argument("--policy", type=Path, help="policy file (.pt); the shipped controller when omitted")
+    parser.add_argument("--steps", type=int, default=5000, help="control steps timed")
+    parser.add_argument("--json", action="store_true", help="print the figures as JSON")
     args = parser.parse_args()
     torch.set_num_threads(1)
     rng = np.random.default_rng(0)

@@ -28,14 +28,15 @@ from training.trainer import Trainer
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--device", default="cpu")
-    parser.add_argument("--threads", type=int, default=1, help="torch threads (default: 1, as training)")
-    parser.add_argument("--updates", type=int, default=30)
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    parser.add_argument("--device", default="cpu", help="torch device the update runs on (cpu, or cuda where a GPU is present)")
+    parser.add_argument("--threads", type=int, default=1, help="torch threads (1, as training)")
+    parser.add_argument("--updates", type=int, default=30, help="updates timed per round")
     parser.add_argument("--critic", choices=("recurrent", "state"), default="recurrent",
-                        help="the critics' input (network.critic; default: recurrent)")
-    parser.add_argument("--rounds", type=int, default=3)
-    parser.add_argument("--json", action="store_true")
+                        help="the critics' input (network.critic)")
+    parser.add_argument("--rounds", type=int, default=3, help="repeats of each measurement; the median is reported")
+    parser.add_argument("--json", action="store_true", help="print the figures as JSON")
     args = parser.parse_args()
     tune_allocator()
     config = TrainConfig(device=args.device, threads=args.threads)

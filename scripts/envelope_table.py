@@ -59,8 +59,9 @@ def markdown(points: list[dict]) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--json", action="store_true")
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    parser.add_argument("--json", action="store_true", help="print the table as JSON")
     args = parser.parse_args()
     points = envelope()
     print(json.dumps(points, indent=2) if args.json else markdown(points))

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 import time
 from pathlib import Path
@@ -59,20 +58,11 @@ def in_process(args) -> dict:
             "ended_early": result.ended_early}
 
 
-def _json_safe(x):
-    if isinstance(x, float) and not math.isfinite(x):
-        return None
-    if isinstance(x, dict):
-        return {k: _json_safe(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_json_safe(v) for v in x]
-    return x
-
-
 def main(argv=None) -> int:
     args = parse_args(argv)
     from jsbsim_env.bench.link import Faults
     from jsbsim_env.bench.plant import BenchConfig, plot_bench, run_bench
+    from jsbsim_env.metrics import json_ready
 
     try:
         cfg = BenchConfig(mode=args.mode, controller=args.controller, policy=args.policy, duration_s=args.duration,
@@ -103,7 +93,7 @@ def main(argv=None) -> int:
         ref = in_process(args)
         ratio = {k: (summary["tracking_rmse"][k] / v if v else None) for k, v in ref["tracking_rmse"].items()}
         summary["in_process"] = {**ref, "rmse_ratio": ratio}
-    summary = _json_safe(summary)
+    summary = json_ready(summary)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     (out / "summary.json").write_text(json.dumps(summary, indent=1))

@@ -95,10 +95,11 @@ def markdown(points: list[dict]) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--json", action="store_true")
-    parser.add_argument("--severities", type=int, nargs="+", default=list(SEVERITIES))
-    parser.add_argument("--altitudes-m", type=float, nargs="+", default=list(ALTITUDES_M))
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    parser.add_argument("--json", action="store_true", help="print the table as JSON")
+    parser.add_argument("--severities", type=int, nargs="+", default=list(SEVERITIES), help="MIL-F-8785C severity levels")
+    parser.add_argument("--altitudes-m", type=float, nargs="+", default=list(ALTITUDES_M), help="altitudes, m")
     args = parser.parse_args()
     # A seed per point: with one seed every point would draw the same noise, and share its error.
     points = [measure(s, a, seed=1 + i) for i, (s, a) in

@@ -48,9 +48,10 @@ def run_summary(run_dir: Path, final_evals: int = 3) -> dict:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("runs", type=Path, nargs="+")
-    parser.add_argument("--out", type=Path, default=Path("fig8_training.png"))
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    parser.add_argument("runs", type=Path, nargs="+", help="run folders (each with progress.csv)")
+    parser.add_argument("--out", type=Path, default=Path("fig8_training.png"), help="the figure to write")
     parser.add_argument("--final-evals", type=int, default=3, help="evaluations averaged into the final return")
     args = parser.parse_args()
     print(json.dumps([run_summary(r, args.final_evals) for r in args.runs], indent=2))

@@ -18,7 +18,8 @@ from training.report import CONTROLLERS, EXPERIMENTS, run_report
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--out", type=Path, required=True, help="folder for report.md, the figures and metrics.json")
     parser.add_argument("--policy", type=Path, help="policy file (default: the shipped controller)")
     parser.add_argument("--quick", action="store_true", help="short flights, for tests")

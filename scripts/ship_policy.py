@@ -25,7 +25,8 @@ SHIPPED_DIR = Path(__file__).resolve().parents[1] / "training" / "shipped"
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("run_dir", type=Path)
     parser.add_argument("--command", help="the training command, for a run without sessions.jsonl")
     parser.add_argument("--commit", help="the commit it was trained at, for a run without sessions.jsonl")

@@ -14,10 +14,14 @@ import sys
 import time
 from pathlib import Path
 
+from training.checkpoint import CheckpointError
 from training.config import PRESETS, TrainConfig
 from training.provenance import append_session
 from training.runtime import tune_allocator
-from training.trainer import Trainer
+from training.trainer import RunLockedError, Trainer, TrainingInterrupted
+
+# Exit codes of a run stopped by a signal, as a shell reports them (128 + signal number).
+_SIGNAL_EXIT = {"SIGINT": 130, "SIGTERM": 143}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -29,26 +33,54 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--preset", choices=PRESETS, default="default",
                         help="starting configuration the other options change: this package's, or the paper's "
                              "(SPEC section 3; default: default)")
+    parser.add_argument("--json", action="store_true",
+                        help="print the last log row as JSON on stdout (everything else goes to stderr)")
     TrainConfig.add_arguments(parser)
     args = parser.parse_args(argv)
+    _log_to_stderr()
     tune_allocator()
     if args.resume and args.preset != "default":
         parser.error("--preset starts a new run; a resumed run keeps the settings it was started with")
-    if args.resume:
-        saved = TrainConfig.from_dict(json.loads((args.resume / "config.json").read_text()))
-        config = TrainConfig.from_namespace(args, base=saved)
-        run_dir = args.resume
-    else:
-        config = TrainConfig.from_namespace(args, base=TrainConfig.preset(args.preset))
-        name = args.run_name or f"sac_seed{config.seed}_{time.strftime('%Y%m%d-%H%M%S')}"
-        run_dir = Path(config.log.run_root) / name
-    trainer = Trainer(config, run_dir, resume=args.resume is not None)
+    try:
+        if args.resume:
+            config_path = args.resume / "config.json"
+            if not config_path.is_file():
+                raise CheckpointError(f"no run to resume at {args.resume} (it has no config.json)")
+            saved = TrainConfig.from_dict(json.loads(config_path.read_text()))
+            config = TrainConfig.from_namespace(args, base=saved)
+            run_dir = args.resume
+        else:
+            config = TrainConfig.from_namespace(args, base=TrainConfig.preset(args.preset))
+            name = args.run_name or f"sac_seed{config.seed}_{time.strftime('%Y%m%d-%H%M%S')}"
+            run_dir = Path(config.log.run_root) / name
+        trainer = Trainer(config, run_dir, resume=args.resume is not None)
+    except (CheckpointError, RunLockedError, ValueError) as err:
+        print(f"train_torchrl: {err}", file=sys.stderr)
+        return 2
     append_session(run_dir, ["python", "scripts/train_torchrl.py", *(sys.argv[1:] if argv is None else argv)],
                    trainer.counters.frames)
     print(f"run folder: {run_dir}", file=sys.stderr)
-    last = trainer.train()
-    print(json.dumps({"run_dir": str(run_dir), **last}, indent=2))
+    try:
+        last = trainer.train()
+    except TrainingInterrupted as stop:
+        print(f"train_torchrl: stopped by {stop}; go on with: python scripts/train_torchrl.py --resume {run_dir}",
+              file=sys.stderr)
+        return _SIGNAL_EXIT.get(stop.signal_name, 1)
+    if args.json:
+        print(json.dumps({"run_dir": str(run_dir), **last}, indent=2))
+    else:
+        print(f"trained to {trainer.counters.frames:,} env steps in {trainer.counters.wall_s:.0f} s; "
+              f"best policy: {run_dir / 'best_policy.pt'}")
     return 0
+
+
+def _log_to_stderr() -> None:
+    """TorchRL logs to stdout; this package keeps stdout for results."""
+    import logging
+
+    for handler in logging.getLogger("torchrl").handlers:
+        if isinstance(handler, logging.StreamHandler) and handler.stream is sys.stdout:
+            handler.setStream(sys.stderr)
 
 
 if __name__ == "__main__":

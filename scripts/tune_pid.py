@@ -16,7 +16,8 @@ from jsbsim_env.controllers.pid import GAINS_PATH, write_gain_table
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--out", type=Path, default=GAINS_PATH, help="gain table to write")
     args = parser.parse_args(argv)
 

@@ -62,8 +62,9 @@ def markdown(points: list[dict]) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--json", action="store_true")
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    parser.add_argument("--json", action="store_true", help="print the table as JSON")
     parser.add_argument("--seconds", type=float, default=5000.0, help="length of each series")
     parser.add_argument("--intensity", default=turb.PAPER, help="'paper' or a MIL-F-8785C severity")
     parser.add_argument("--sigma-mps", type=float, default=0.5, help="intensity of 'paper'")

@@ -12,7 +12,7 @@ import pytest
 import torch
 
 from jsbsim_env.task import TaskConfig
-from training.checkpoint import CheckpointError, atomic_save, load_checkpoint
+from training.checkpoint import CheckpointError, atomic_save, checked_load, load_checkpoint
 from training.config import TrainConfig
 from training.trainer import RunLockedError, Trainer
 
@@ -64,7 +64,7 @@ def test_tiny_run_writes_logs_checkpoint_and_policy(tmp_path):
     assert any(p.name.startswith("events") for p in (run / "tb").iterdir())
     data = load_checkpoint(run / "checkpoint.pt")
     assert data["counters"]["frames"] == 192 and len(data["buffer"]["data"]) == 192
-    policy = torch.load(run / "best_policy.pt", weights_only=False)
+    policy = checked_load(run / "best_policy.pt")
     assert policy["window"] == 8 and "actor" in policy
 
 
@@ -90,7 +90,7 @@ def test_corrupt_or_mismatched_checkpoints_give_clear_errors(tmp_path):
     with pytest.raises(CheckpointError, match="other settings"):
         Trainer(other, run, resume=True)
     (run / "checkpoint.pt").write_bytes(b"not a checkpoint")
-    with pytest.raises(CheckpointError, match="corrupt"):
+    with pytest.raises(CheckpointError, match="damaged"):
         Trainer(tiny_config(96), run, resume=True)
     with pytest.raises(CheckpointError, match="no checkpoint"):
         load_checkpoint(tmp_path / "missing.pt")

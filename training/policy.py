@@ -25,6 +25,7 @@ from jsbsim_env.task import (
     observation_size,
     scale_observation,
 )
+from training.checkpoint import checked_load, non_finite_entries
 from training.networks import ActorNet
 
 SHIPPED_POLICY = "solar_uav_policy.pt"  # in the training package, with its ONNX export beside it
@@ -56,8 +57,13 @@ def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
     """The deterministic actor and the metadata saved with it (``Trainer.save_policy``); the metadata's
     ``error_integral_decay`` (0 for files from before the error integrals) sets the observation layout."""
     path = Path(path)
+    if not path.is_file():
+        raise PolicyFileError(f"no policy file at {path}")
     try:
-        data = torch.load(path, map_location="cpu", weights_only=False)
+        data = checked_load(path)
+        bad = non_finite_entries(data["actor"])
+        if bad:
+            raise PolicyFileError(f"{path} holds NaN or infinite weights ({', '.join(bad[:3])}); it cannot fly")
         decay = float(data.get("error_integral_decay", 0.0))
         expected = observation_size(decay)
         prefix = "module.0.module."
@@ -155,17 +161,16 @@ class PolicyRuntime:
 
     def _current_onnx(self, path: Path) -> Path:
         """The ONNX export of the policy file at ``path``: the one beside it when it was made from
-        this very file, else a fresh export (beside it, or in a temporary folder where that is
-        read-only). A training run rewrites its best policy, so an older export must not be reused."""
+        this very file (a training run rewrites its best policy, so an older export must not be
+        reused), else a fresh export in a temporary folder that lives as long as the runtime:
+        nothing is written beside the user's files (``scripts/ship_policy.py`` writes the export
+        that ships)."""
         digest = policy_digest(path)
         onnx_path = path.with_suffix(".onnx")
         if onnx_source_digest(onnx_path) == digest:
             return onnx_path
-        try:
-            return export_onnx(self.actor, onnx_path, self.window, digest)
-        except OSError:
-            self._export_dir = tempfile.TemporaryDirectory()  # lives as long as the runtime
-            return export_onnx(self.actor, Path(self._export_dir.name) / onnx_path.name, self.window, digest)
+        self._export_dir = tempfile.TemporaryDirectory()
+        return export_onnx(self.actor, Path(self._export_dir.name) / onnx_path.name, self.window, digest)
 
     def reset(self) -> None:
         """Forget the window, the last action and the error integrals (a new episode)."""

@@ -7,8 +7,11 @@ state) and ``best_policy.pt`` (the best deterministic policy by evaluation retur
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import math
+import signal
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -73,7 +76,13 @@ class Trainer:
 
     def __init__(self, config: TrainConfig, run_dir: Path | str, resume: bool = False):
         self.config = c = config
+        if c.collector.total_frames <= c.collector.init_random_frames:
+            raise ValueError(f"collector.total_frames ({c.collector.total_frames}) must exceed "
+                             f"collector.init_random_frames ({c.collector.init_random_frames}): the run would "
+                             "only take random steps and learn nothing")
         self.run_dir = Path(run_dir)
+        if resume and not (self.run_dir / "checkpoint.pt").is_file():
+            raise CheckpointError(f"no checkpoint to resume at {self.run_dir / 'checkpoint.pt'}")
         self.run_dir.mkdir(parents=True, exist_ok=True)
         self._lock = _lock_run_dir(self.run_dir)
         if c.threads > 0:
@@ -221,50 +230,56 @@ class Trainer:
         next_ckpt = _next_multiple(self.counters.frames, c.log.checkpoint_every_frames)
         row: dict = {}
         update_debt = 0.0
-        try:
-            for data in collector:
-                data = data.reshape(-1)
-                self._record_episodes(data)
-                self.buffer.extend(data.select(*self.stored_keys).cpu())
-                n = data.numel()
-                before = self.counters.frames
-                self.counters.frames += n
-                # Updates per step collected after the random warm-up.
-                learn_frames = self.counters.frames - max(before, c.collector.init_random_frames)
-                if learn_frames > 0:
-                    update_debt += learn_frames * c.optim.updates_per_step
-                    while update_debt >= 1.0:
-                        self._update(self.buffer.sample())
-                        update_debt -= 1.0
-                collector.update_policy_weights_()
-                self.counters.wall_s = wall_before + time.perf_counter() - session_start
-                if bar is not None:
-                    bar.update(n)
-                evaluation = None
-                if self.counters.frames >= next_eval:
-                    evaluation = self.evaluate()
-                    next_eval = _next_multiple(self.counters.frames, c.log.eval_every_frames)
-                if self.counters.frames >= next_log or evaluation is not None:
-                    row = self._log_row(start_frames, session_start, evaluation)
-                    csv_writer.writerow(row)
-                    csv_file.flush()
-                    for key, value in row.items():
-                        if key not in ("frames", "updates") and value != "" and value is not None:
-                            writer.add_scalar(key, value, self.counters.frames)
-                    writer.flush()
+        stop: list[int] = []  # signals received (``_stop_on_signals``)
+        with _stop_on_signals(stop):
+            try:
+                for data in collector:
+                    data = data.reshape(-1)
+                    self._record_episodes(data)
+                    self.buffer.extend(data.select(*self.stored_keys).cpu())
+                    n = data.numel()
+                    before = self.counters.frames
+                    self.counters.frames += n
+                    # Updates per step collected after the random warm-up.
+                    learn_frames = self.counters.frames - max(before, c.collector.init_random_frames)
+                    if learn_frames > 0:
+                        update_debt += learn_frames * c.optim.updates_per_step
+                        while update_debt >= 1.0:
+                            self._update(self.buffer.sample())
+                            update_debt -= 1.0
+                    collector.update_policy_weights_()
+                    self.counters.wall_s = wall_before + time.perf_counter() - session_start
                     if bar is not None:
-                        bar.set_postfix(sps=f"{row['env_steps_per_s']:.0f}", ret=row["episode_return_norm"],
-                                        eval=row["eval_return_norm"])
-                    next_log = _next_multiple(self.counters.frames, c.log.log_every_frames)
-                if self.counters.frames >= next_ckpt or self.counters.frames >= c.collector.total_frames:
-                    self.save()
-                    next_ckpt = _next_multiple(self.counters.frames, c.log.checkpoint_every_frames)
-        finally:
-            collector.shutdown()
-            writer.close()
-            csv_file.close()
-            if bar is not None:
-                bar.close()
+                        bar.update(n)
+                    evaluation = None
+                    if self.counters.frames >= next_eval:
+                        evaluation = self.evaluate()
+                        next_eval = _next_multiple(self.counters.frames, c.log.eval_every_frames)
+                    if self.counters.frames >= next_log or evaluation is not None:
+                        row = self._log_row(start_frames, session_start, evaluation)
+                        csv_writer.writerow(row)
+                        csv_file.flush()
+                        for key, value in row.items():
+                            if key not in ("frames", "updates") and value != "" and value is not None:
+                                writer.add_scalar(key, value, self.counters.frames)
+                        writer.flush()
+                        if bar is not None:
+                            bar.set_postfix(sps=f"{row['env_steps_per_s']:.0f}", ret=row["episode_return_norm"],
+                                            eval=row["eval_return_norm"])
+                        next_log = _next_multiple(self.counters.frames, c.log.log_every_frames)
+                    if self.counters.frames >= next_ckpt or self.counters.frames >= c.collector.total_frames:
+                        self.save()
+                        next_ckpt = _next_multiple(self.counters.frames, c.log.checkpoint_every_frames)
+                    if stop:
+                        self.save()
+                        raise TrainingInterrupted(signal.Signals(stop[0]).name, self.counters.frames,
+                                                  self.checkpoint_path)
+            finally:
+                collector.shutdown()
+                writer.close()
+                csv_file.close()
+                if bar is not None:
+                    bar.close()
         return row
 
     def evaluate(self) -> dict:
@@ -338,6 +353,31 @@ def _lock_run_dir(run_dir: Path):
         handle.close()
         raise RunLockedError(f"another process is training in {run_dir}; wait for it or stop it first") from None
     return handle
+
+
+class TrainingInterrupted(Exception):
+    """SIGINT or SIGTERM stopped training; the checkpoint was written first."""
+
+    def __init__(self, signal_name: str, frames: int, checkpoint: Path):
+        self.signal_name, self.frames, self.checkpoint = signal_name, frames, checkpoint
+        super().__init__(f"{signal_name} at {frames:,} env steps; checkpoint written to {checkpoint}")
+
+
+@contextlib.contextmanager
+def _stop_on_signals(flag: list):
+    """While inside, SIGINT and SIGTERM only append their number to ``flag`` (the loop checks it
+    between batches, so the checkpoint is never written from the middle of an update). Outside the
+    main thread signals cannot be caught, and nothing changes."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {sig: signal.signal(sig, lambda signum, frame: flag.append(signum))
+                for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
 
 
 def buffer_contents(buffer: TensorDictReplayBuffer) -> dict:

@@ -1,0 +1,114 @@
+"""Soak: one long training run with its resident memory sampled over time (Linux: /proc).
+
+    python scripts/soak_train.py --out runs/soak                  # 1,000,000 env steps
+    python scripts/soak_train.py --out runs/soak --frames 200000 --capacity 50000
+
+Starts ``scripts/train_torchrl.py`` (or resumes it: the soak's run folder is ``OUT/run``, and a
+killed soak goes on where it stopped), samples the trainer's resident set size every
+``--sample-s`` seconds into ``OUT/memory.csv`` (wall time, env steps, RSS), and prints a summary:
+RSS when the replay buffer fills, at the end, its maximum, and the growth per 100,000 steps after
+the buffer is full (a least-squares slope), which a leak-free run keeps near zero. The learning
+settings are the default run's, but with fewer updates per step (``--updates-per-step``) so that
+a million steps take under an hour on one core: memory is what is measured here, not learning.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def rss_mib(pid: int) -> float | None:
+    """Resident set size of a process, MiB (None once it has exited)."""
+    try:
+        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024.0
+    except OSError:
+        return None
+    return None
+
+
+def frames_done(run_dir: Path) -> int:
+    """Env steps of the last progress row (0 before the first)."""
+    path = run_dir / "progress.csv"
+    if not path.exists():
+        return 0
+    last = 0
+    with path.open() as fh:
+        for row in csv.DictReader(fh):
+            last = int(row["frames"])
+    return last
+
+
+def summarise(samples: np.ndarray, capacity: int) -> dict:
+    """Figures of (wall s, frames, RSS MiB) rows."""
+    if samples.size == 0:
+        return {"samples": 0}
+    frames, rss = samples[:, 1], samples[:, 2]
+    full = frames >= capacity
+    out = {"samples": len(samples), "frames": int(frames.max()), "rss_start_mib": float(rss[0]),
+           "rss_max_mib": float(rss.max()), "rss_end_mib": float(rss[-1]), "buffer_capacity": capacity}
+    if full.sum() >= 3 and np.ptp(frames[full]) > 0:
+        slope = np.polyfit(frames[full], rss[full], 1)[0]
+        out.update(rss_at_buffer_full_mib=float(rss[full][0]), growth_after_full_mib_per_100k_steps=float(slope * 1e5),
+                   steps_after_full=int(np.ptp(frames[full])))
+    return out
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p.add_argument("--out", type=Path, required=True, help="soak folder (the run is OUT/run)")
+    p.add_argument("--frames", type=int, default=1_000_000, help="env steps in all")
+    p.add_argument("--capacity", type=int, default=200_000, help="replay capacity, transitions")
+    p.add_argument("--updates-per-step", type=float, default=0.02, help="gradient steps per env step")
+    p.add_argument("--sample-s", type=float, default=20.0, help="seconds between memory samples")
+    p.add_argument("--seed", type=int, default=0, help="training seed")
+    args = p.parse_args(argv)
+    if not Path("/proc/self/status").exists():
+        p.error("the soak reads memory from /proc, which this system lacks")
+    args.out.mkdir(parents=True, exist_ok=True)
+    run_dir = args.out / "run"
+    common = ["--collector.total_frames", str(args.frames), "--log.progress", "false"]
+    if (run_dir / "checkpoint.pt").exists():
+        cmd = ["--resume", str(run_dir), *common]
+    else:
+        cmd = ["--seed", str(args.seed), "--log.run_root", str(args.out), "--run-name", "run",
+               "--buffer.capacity", str(args.capacity), "--optim.updates_per_step", str(args.updates_per_step),
+               "--log.checkpoint_every_frames", "100000", *common]
+    script = Path(__file__).resolve().parent / "train_torchrl.py"
+    memory_csv = args.out / "memory.csv"
+    new_file = not memory_csv.exists()
+    with memory_csv.open("a", newline="") as fh, open(args.out / "train.log", "a") as log:
+        writer = csv.writer(fh)
+        if new_file:
+            writer.writerow(["wall_s", "frames", "rss_mib"])
+        proc = subprocess.Popen([sys.executable, str(script), *cmd], stdout=log, stderr=log)
+        start = time.perf_counter()
+        while proc.poll() is None:
+            rss = rss_mib(proc.pid)
+            if rss is not None:
+                writer.writerow([round(time.perf_counter() - start, 1), frames_done(run_dir), round(rss, 1)])
+                fh.flush()
+            time.sleep(args.sample_s)
+    if proc.returncode != 0:
+        print(f"soak: training exited with code {proc.returncode}; see {args.out / 'train.log'}", file=sys.stderr)
+        return proc.returncode
+    rows = np.loadtxt(memory_csv, delimiter=",", skiprows=1, ndmin=2)
+    config = json.loads((run_dir / "config.json").read_text())
+    summary = summarise(rows, int(config["buffer"]["capacity"]))
+    (args.out / "summary.json").write_text(json.dumps(summary, indent=1))
+    print(json.dumps(summary, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
