@@ -7,6 +7,7 @@ import pytest
 import torch
 
 from jsbsim_env.task import OBS_SIZE, AttitudeTask, TaskConfig, action_to_command
+from training.checkpoint import atomic_save, checked_load
 from training.config import TrainConfig
 from training.policy import PolicyFileError, PolicyRuntime, export_onnx, load_policy
 from training.trainer import Trainer
@@ -80,10 +81,10 @@ def test_a_stale_onnx_export_beside_a_rewritten_policy_is_not_used(policy_file, 
     shutil.copyfile(policy_file[0], path)
     window = np.random.default_rng(1).normal(size=(8, OBS_SIZE)).astype(np.float32)
     first = PolicyRuntime(path, backend="onnx").action(window)
-    data = torch.load(path, weights_only=False)
+    data = checked_load(path)
     key = next(k for k in data["actor"] if k.endswith("weight_ih_l0"))
     data["actor"][key] = data["actor"][key] + 0.5
-    torch.save(data, path)
+    atomic_save(data, path)
     onnx_now = PolicyRuntime(path, backend="onnx").action(window)
     np.testing.assert_allclose(onnx_now, PolicyRuntime(path, backend="torch").action(window), atol=1e-5)
     assert np.abs(onnx_now - first).max() > 1e-3

@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import os
 import tempfile
+import warnings
 from importlib import resources
 from pathlib import Path
 
@@ -111,8 +112,15 @@ def export_onnx(actor: DeterministicActor, path: Path | str, window: int = 8, so
     handle, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
     os.close(handle)
     try:
-        torch.onnx.export(actor, (example,), tmp, input_names=["window"], output_names=["action"],
-                          dynamo=False, opset_version=17)
+        with warnings.catch_warnings():
+            # The TorchScript exporter is chosen on purpose (the torch.export one needs onnxscript),
+            # and its tracer's notes on the LSTM's shape checks and batch size hold for this one
+            # fixed input shape (one window), which is all the export serves.
+            warnings.filterwarnings("ignore", category=DeprecationWarning)
+            warnings.filterwarnings("ignore", category=torch.jit.TracerWarning)
+            warnings.filterwarnings("ignore", message="Exporting a model to ONNX with a batch_size other than 1")
+            torch.onnx.export(actor, (example,), tmp, input_names=["window"], output_names=["action"],
+                              dynamo=False, opset_version=17)
         if source_digest is not None:
             model = onnx.load(tmp)
             model.metadata_props.add(key=ONNX_SOURCE_KEY, value=source_digest)

@@ -81,8 +81,8 @@ class Trainer:
                              f"collector.init_random_frames ({c.collector.init_random_frames}): the run would "
                              "only take random steps and learn nothing")
         self.run_dir = Path(run_dir)
-        if resume and not (self.run_dir / "checkpoint.pt").is_file():
-            raise CheckpointError(f"no checkpoint to resume at {self.run_dir / 'checkpoint.pt'}")
+        if resume and not self.run_dir.is_dir():
+            raise CheckpointError(f"no run folder to resume at {self.run_dir}")
         self.run_dir.mkdir(parents=True, exist_ok=True)
         self._lock = _lock_run_dir(self.run_dir)
         if c.threads > 0:
@@ -215,7 +215,9 @@ class Trainer:
         random_frames = frames_per_batch * math.ceil(max(0, c.collector.init_random_frames - self.counters.frames)
                                                      / frames_per_batch)
         collector = Collector(
-            self.env, self.actor, frames_per_batch=frames_per_batch, total_frames=remaining,
+            # Whole batches, as the collector collects anyway (and warns about otherwise).
+            self.env, self.actor, frames_per_batch=frames_per_batch,
+            total_frames=frames_per_batch * math.ceil(remaining / frames_per_batch),
             init_random_frames=random_frames,
             exploration_type=ExplorationType.RANDOM,
             # The LSTMs read a window of observations and keep no state between steps.
