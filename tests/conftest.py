@@ -14,8 +14,8 @@ import os
 for _name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_name, "1")
 
-import shutil  # noqa: E402 - after the thread settings, before anything imports numpy
-import tempfile  # noqa: E402
+import shutil  # after the thread settings, before anything imports numpy
+import tempfile
 
 
 def pytest_configure(config):
