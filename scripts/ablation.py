@@ -23,10 +23,10 @@ import torch
 
 import aircraft
 from jsbsim_env.controllers.pid import PIDAttitudeController
-from training.evaluate import suite_episodes
 from training.policy import PolicyRuntime, load_policy, policy_digest
 from training.provenance import training_wall_clock
 from training.report import run_report
+from training.suite import suite_episodes
 
 EXPERIMENTS = ("altitudes", "route_10km")
 # (column, where it sits in a scorecard); steady-state errors are calm air, the RMSEs the turbulent leg.

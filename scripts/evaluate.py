@@ -17,8 +17,8 @@ import torch
 
 from jsbsim_env.controllers.pid import PIDAttitudeController
 from jsbsim_env.metrics import json_ready
-from training.evaluate import evaluate
 from training.policy import PolicyFileError, PolicyRuntime
+from training.suite import evaluate
 
 
 def why_null(path: str) -> str:

@@ -17,9 +17,9 @@ from pathlib import Path
 
 import torch
 
-from training.evaluate import evaluate
 from training.policy import SHIPPED_POLICY, PolicyRuntime, export_onnx, load_policy, policy_digest
 from training.provenance import read_sessions, training_wall_clock
+from training.suite import evaluate
 
 SHIPPED_DIR = Path(__file__).resolve().parents[1] / "training" / "shipped"
 

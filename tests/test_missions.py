@@ -88,7 +88,7 @@ def test_mission_metrics_on_known_signals():
 def test_pid_on_the_policy_evaluation_suite():
     """The evaluation suite flies any controller of the shared interface: the PID follows every
     doublet step at 5,000 m closely and flies disturbed training-style episodes to the end."""
-    from training.evaluate import doublet_runs, evaluate
+    from training.suite import doublet_runs, evaluate
 
     doublets = doublet_runs(PIDAttitudeController(), altitudes_m=(5000.0,))["5000m"]
     assert not doublets["ended_early"]

@@ -5,8 +5,8 @@ from __future__ import annotations
 import json
 
 from jsbsim_env.task import AttitudeTaskBatch, TaskConfig
-from training.evaluate import EVAL_EPISODE_SEED, fly
 from training.policy import PolicyRuntime, load_policy, onnx_source_digest, policy_digest, shipped_policy_path
+from training.suite import EVAL_EPISODE_SEED, fly
 
 RANDOM_ACTIONS_RETURN = 0.13  # normalised return of uniformly random actions on these episodes
 

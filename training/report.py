@@ -285,7 +285,7 @@ def run_report(out_dir: Path | str, policy_path: Path | str | None = None, quick
         if "RL" not in makers:
             metrics["doublets"] = "no trained policy"
             return
-        from training.evaluate import doublet_runs
+        from training.suite import doublet_runs
 
         metrics["doublets"] = doublet_runs(makers["RL"](), plan.doublet_altitudes_m, out, prefix="fig09_doublets")
 
