@@ -22,6 +22,7 @@ import numpy as np
 import torch
 
 import aircraft
+from jsbsim_env.controllers.integral_trim import IntegralTrim
 from jsbsim_env.controllers.pid import PIDAttitudeController
 from training.policy import PolicyRuntime, load_policy, policy_digest
 from training.provenance import training_wall_clock
@@ -44,12 +45,15 @@ def candidate_name(run_dir: Path) -> str:
     return re.sub(r"_seed\d+$", "", run_dir.name)
 
 
-def score(controller_factory, out_dir: Path, policy: Path | None, episodes: int, quick: bool = False) -> dict:
+def score(controller_factory, out_dir: Path, policy: Path | None, episodes: int, quick: bool = False,
+          integral_trim: float = 0.0) -> dict:
     """Suite, routes and their figures into ``out_dir``, kept in ``out_dir/scorecard.json`` and
-    reused while the controller (the policy file's digest, or the PID), the aircraft model, the
-    episode count and ``quick`` are the same."""
+    reused while the controller (the policy file's digest, or the PID, and its integral trim), the
+    aircraft model, the episode count and ``quick`` are the same."""
     key = {"controller": policy_digest(policy) if policy is not None else "PID", "episodes": episodes,
            "quick": quick, "aircraft_model": aircraft.model_fingerprint()}
+    if integral_trim:
+        key["integral_trim"] = integral_trim
     path = out_dir / "scorecard.json"
     if path.exists():
         cached = json.loads(path.read_text())
@@ -58,7 +62,8 @@ def score(controller_factory, out_dir: Path, policy: Path | None, episodes: int,
     out_dir.mkdir(parents=True, exist_ok=True)
     suite = suite_episodes(controller_factory(), episodes)
     name = "PID" if policy is None else "RL"
-    metrics = run_report(out_dir, policy, quick=quick, progress=False, experiments=EXPERIMENTS, controllers=(name,))
+    metrics = run_report(out_dir, policy, quick=quick, progress=False, experiments=EXPERIMENTS, controllers=(name,),
+                         integral_trim=integral_trim)
     card = {"key": key, "suite": suite,
             "altitudes": {k: v[name]["steady_state_error"] for k, v in metrics["altitudes"].items()},
             "route_10km": {k: metrics["route_10km"][name][k] for k in ("level_window", "turbulent_leg")},
@@ -68,10 +73,17 @@ def score(controller_factory, out_dir: Path, policy: Path | None, episodes: int,
     return card
 
 
-def run_scorecard(run_dir: Path, episodes: int, quick: bool = False) -> dict:
-    """The scores of the run's best policy, with the wall-clock the run took to reach it."""
+def run_scorecard(run_dir: Path, episodes: int, quick: bool = False, integral_trim: float = 0.0) -> dict:
+    """The scores of the run's best policy (with integral trim of that fraction, where > 0), with the
+    wall-clock the run took to reach it."""
     policy = run_dir / "best_policy.pt"
-    card = score(lambda: PolicyRuntime(policy, backend="torch"), run_dir / "scorecard", policy, episodes, quick)
+
+    def controller():
+        runtime = PolicyRuntime(policy, backend="torch")
+        return IntegralTrim(runtime, integral_trim) if integral_trim else runtime
+
+    folder = run_dir / (f"scorecard_trim{integral_trim:g}" if integral_trim else "scorecard")
+    card = score(controller, folder, policy, episodes, quick, integral_trim)
     frames = int(load_policy(policy)[1]["frames"])
     return {**card, "run": str(run_dir), "policy_frames": frames, "wall_clock": training_wall_clock(run_dir, frames)}
 
@@ -119,6 +131,9 @@ def main() -> None:
     output.add_argument("--json", action="store_true", help="print every scorecard as JSON (the default)")
     output.add_argument("--markdown", action="store_true", help="print the table as Markdown")
     parser.add_argument("--quick", action="store_true", help="short routes, for checks")
+    parser.add_argument("--integral-trim", type=float, default=0.0, metavar="FRACTION",
+                        help="score the policies with integral trim (controllers.integral_trim) at this fraction of "
+                             "the PID's integral gains; 0: without")
     args = parser.parse_args()
     torch.set_num_threads(1)
     for run in args.runs:
@@ -128,7 +143,8 @@ def main() -> None:
     if args.pid:
         groups["PID (reference)"] = [score(PIDAttitudeController, args.pid, None, args.episodes, args.quick)]
     for run in args.runs:
-        groups.setdefault(candidate_name(run), []).append(run_scorecard(run, args.episodes, args.quick))
+        name = candidate_name(run) + (f" + integral trim {args.integral_trim:g}" if args.integral_trim else "")
+        groups.setdefault(name, []).append(run_scorecard(run, args.episodes, args.quick, args.integral_trim))
     print(markdown(groups) if args.markdown else json.dumps(groups, indent=1, default=float))
 
 

@@ -28,6 +28,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="comma-separated subset of the experiments (default: all of them)")
     parser.add_argument("--controllers", default=",".join(CONTROLLERS),
                         help="comma-separated subset of the controllers (default: both)")
+    parser.add_argument("--integral-trim", type=float, default=0.0, metavar="FRACTION",
+                        help="fly the policy with integral trim (jsbsim_env.controllers.integral_trim) at this "
+                             "fraction of the PID's integral gains; 0: the policy alone")
     args = parser.parse_args(argv)
     experiments, controllers = (tuple(filter(None, v.split(","))) for v in (args.experiments, args.controllers))
     for label, given, known in (("experiment", experiments, EXPERIMENTS), ("controller", controllers, CONTROLLERS)):
@@ -35,7 +38,7 @@ def main(argv: list[str] | None = None) -> int:
         if bad or not given:
             parser.error(f"unknown or no {label} {bad}: choose from {', '.join(known)}")
     run_report(args.out, args.policy, quick=args.quick, progress=not args.no_progress, experiments=experiments,
-               controllers=controllers)
+               controllers=controllers, integral_trim=args.integral_trim)
     print(f"wrote {args.out / 'report.md'}")
     return 0
 

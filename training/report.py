@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 import aircraft
+from jsbsim_env.controllers.integral_trim import IntegralTrim
 from jsbsim_env.controllers.pid import PIDAttitudeController
 from jsbsim_env.effectiveness import effectiveness, plot_effectiveness
 from jsbsim_env.missions import MissionResult, RouteConfig, fly_route
@@ -71,15 +72,19 @@ class ReportPlan:
                    effectiveness_altitudes_m=(0.0, 20000.0), steady_after_leg_change_s=5.0)
 
 
-def _controllers(policy_path) -> tuple[dict[str, Callable[[], object]], Path | None]:
-    """Factories of the attitude controllers to compare, the policy only when one is available;
-    and the policy file (None without one)."""
+def _controllers(policy_path, integral_trim: float = 0.0) -> tuple[dict[str, Callable[[], object]], Path | None]:
+    """Factories of the attitude controllers to compare, the policy only when one is available
+    (with ``controllers.integral_trim`` at that fraction where > 0); and the policy file (None
+    without one)."""
     makers: dict[str, Callable[[], object]] = {"PID": PIDAttitudeController}
     from training.policy import PolicyFileError, PolicyRuntime, shipped_policy_path
 
     path = Path(policy_path) if policy_path is not None else shipped_policy_path()
     if path.exists():
-        makers["RL"] = lambda: PolicyRuntime(path)
+        if integral_trim:
+            makers["RL"] = lambda: IntegralTrim(PolicyRuntime(path), integral_trim)
+        else:
+            makers["RL"] = lambda: PolicyRuntime(path)
         return makers, path
     if policy_path is not None:
         raise PolicyFileError(f"policy file {path} does not exist")
@@ -98,6 +103,8 @@ def policy_provenance(path: Path) -> dict[str, str | None]:
 def _provenance_line(policy: dict) -> str:
     trained, flown = policy["trained_on_aircraft_model"], policy["flown_aircraft_model"]
     start = f"The RL rows fly `{policy['path']}`"
+    if policy.get("integral_trim"):
+        start += f" with integral trim at {policy['integral_trim']:g} of the PID's integral gains"
     if trained is None:
         return f"{start}, whose record names no aircraft model; this report flies aircraft model `{flown[:12]}`."
     if trained == flown:
@@ -253,9 +260,10 @@ def _fmt(x) -> str:
 
 def run_report(out_dir: Path | str, policy_path: Path | str | None = None, quick: bool = False,
                progress: bool = True, experiments: tuple[str, ...] = EXPERIMENTS,
-               controllers: tuple[str, ...] = CONTROLLERS) -> dict:
+               controllers: tuple[str, ...] = CONTROLLERS, integral_trim: float = 0.0) -> dict:
     """Run the experiments (all of ``EXPERIMENTS`` unless fewer are named) for the controllers named
-    ("PID", "RL"), write ``report.md``, the figures and ``metrics.json``; returns the metrics."""
+    ("PID", "RL"; the RL with integral trim at ``integral_trim`` where > 0), write ``report.md``,
+    the figures and ``metrics.json``; returns the metrics."""
     unknown = sorted(set(experiments) - set(EXPERIMENTS)) + sorted(set(controllers) - set(CONTROLLERS))
     if unknown:
         raise ValueError(f"unknown experiment or controller {unknown}: experiments are {list(EXPERIMENTS)}, "
@@ -263,7 +271,7 @@ def run_report(out_dir: Path | str, policy_path: Path | str | None = None, quick
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     plan = ReportPlan.quick() if quick else ReportPlan()
-    makers, policy_file = _controllers(policy_path)
+    makers, policy_file = _controllers(policy_path, integral_trim)
     makers = {name: make for name, make in makers.items() if name in controllers}
     names = list(makers)
     base = RouteConfig(altitude_m=10_000.0, duration_s=plan.route_10km_s, turbulence_legs=(plan.turbulence_leg,),
@@ -272,7 +280,7 @@ def run_report(out_dir: Path | str, policy_path: Path | str | None = None, quick
     metrics: dict = {"plan": asdict(plan), "controllers": names, "experiments": list(experiments), "paper": {"table8": PAPER_TABLE8,
                      "level_mae": PAPER_LEVEL_MAE, "steady_state": PAPER_STEADY_STATE}}
     if policy_file is not None:
-        metrics["policy"] = policy_provenance(policy_file)
+        metrics["policy"] = {**policy_provenance(policy_file), "integral_trim": integral_trim}
     routes: dict[tuple[str, str], MissionResult] = {}
 
     def fly(key: str, name: str, config: RouteConfig) -> MissionResult:

@@ -40,12 +40,18 @@ from jsbsim_env.bench.wire import (
 RESET_AFTER_GAP_S = 0.12
 
 
-def make_controller(name: str, policy: str | None = None):
-    """``"policy"`` (the ONNX policy: the shipped one, or ``policy``) or ``"pid"``."""
+def make_controller(name: str, policy: str | None = None, integral_trim: float = 0.0):
+    """``"policy"`` (the ONNX policy: the shipped one, or ``policy``; with integral trim at that
+    fraction where > 0) or ``"pid"``."""
     if name == "policy":
         from training.policy import PolicyRuntime
 
-        return PolicyRuntime(policy, backend="onnx")
+        runtime = PolicyRuntime(policy, backend="onnx")
+        if integral_trim:
+            from jsbsim_env.controllers.integral_trim import IntegralTrim
+
+            return IntegralTrim(runtime, integral_trim)
+        return runtime
     if name == "pid":
         from jsbsim_env.controllers.pid import PIDAttitudeController
 
@@ -162,6 +168,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--baud", type=int, default=115200, help="line rate, bit/s")
     parser.add_argument("--controller", default="policy", choices=("policy", "pid"))
     parser.add_argument("--policy", default=None, help="policy file (.pt); the shipped policy when omitted")
+    parser.add_argument("--integral-trim", type=float, default=0.0, metavar="FRACTION",
+                        help="the policy with integral trim at this fraction of the PID's integral gains; 0: alone")
     parser.add_argument("--rate-hz", type=float, default=25.0, help="control frame rate the controller assumes, Hz")
     parser.add_argument("--faults", default="", help="controller-side faults: stall_at=S,stall_s=D (flight time, s)")
     parser.add_argument("--stats", default=None, help="write the counters here (JSON) on exit")
@@ -175,7 +183,8 @@ def main(argv: list[str] | None = None) -> int:
     except (serial.SerialException, OSError) as exc:
         print(f"cannot open serial device {args.device}: {exc}", file=sys.stderr)
         return 2
-    node = ControllerNode(port, make_controller(args.controller, args.policy), args.rate_hz, Faults.parse(args.faults))
+    node = ControllerNode(port, make_controller(args.controller, args.policy, args.integral_trim), args.rate_hz,
+                          Faults.parse(args.faults))
 
     def stop(signum, frame):
         node.running = False

@@ -90,6 +90,7 @@ class BenchConfig:
     mode: str = "realtime"  # or "lockstep"
     controller: str = "policy"  # or "pid"
     policy: str | None = None
+    integral_trim: float = 0.0  # the policy with integral trim at this fraction (controllers.integral_trim)
     duration_s: float = 60.0
     baud: int = 115_200
     faults: Faults = field(default_factory=Faults)
@@ -129,6 +130,8 @@ class _ControllerProcess:
                "--controller", cfg.controller, "--rate-hz", str(cfg.rate_hz), "--stats", str(stats_path)]
         if cfg.policy:
             cmd += ["--policy", str(cfg.policy)]
+        if cfg.integral_trim:
+            cmd += ["--integral-trim", str(cfg.integral_trim)]
         f = cfg.faults
         if f.stall_at_s is not None:
             cmd += ["--faults", f"stall_at={f.stall_at_s},stall_s={f.stall_s}"]

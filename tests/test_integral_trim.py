@@ -1,0 +1,64 @@
+"""Integral trim around an attitude controller: it removes a steady error, stops integrating
+against a saturated surface, and refuses a nonsensical gain."""
+
+import numpy as np
+import pytest
+
+from jsbsim_env.controllers.integral_trim import IntegralTrim
+from jsbsim_env.controllers.pid import SURFACE_INTEGRATOR_LIMIT_DEG
+from jsbsim_env.missions import RouteConfig, fly_route
+from training.report import steady_state_errors
+
+
+class _Offset:
+    """A controller that holds a fixed command whatever the state."""
+
+    def __init__(self, command):
+        self.command = np.array(command, dtype=float)
+
+    def reset(self):
+        pass
+
+    def update(self, dt_s, measurement, setpoint):
+        return self.command.copy()
+
+
+MEASUREMENT = np.array([1000.0, 0.0, 0.02, 0, 0, 0, 10.0, 0.05, 0, 0, 0, 0, 0.4])
+
+
+def test_it_integrates_the_errors_onto_aileron_and_elevator_only():
+    trim = IntegralTrim(_Offset([1.0, 2.0, 3.0, 0.4]), fraction=0.5)
+    first = trim.update(0.04, MEASUREMENT, np.array([0.0, 0.0, 10.0]))
+    assert np.array_equal(first, [1.0, 2.0, 3.0, 0.4])  # nothing integrated yet
+    second = trim.update(0.04, MEASUREMENT, np.array([0.0, 0.0, 10.0]))
+    assert second[0] == 1.0 and second[1] > 2.0 and second[2:].tolist() == [3.0, 0.4]  # pitch above its goal
+    trim.reset()
+    assert trim.trim_deg.tolist() == [0.0, 0.0]
+
+
+def test_it_stops_integrating_against_a_saturated_surface():
+    trim = IntegralTrim(_Offset([0.0, 30.0, 0.0, 0.5]), fraction=1.0)
+    for _ in range(500):
+        command = trim.update(0.04, MEASUREMENT, np.array([0.0, 0.0, 10.0]))
+    # One step's worth at the limit, then no more (500 steps would otherwise add about 60 deg).
+    assert command[1] == 30.0 and 0.0 < trim.trim_deg[1] < 0.2
+    trim = IntegralTrim(_Offset([0.0, 0.0, 0.0, 0.5]), fraction=2.0)
+    for _ in range(20_000):
+        trim.update(0.04, MEASUREMENT, np.array([0.0, 0.0, 10.0]))
+    assert trim.trim_deg[1] == SURFACE_INTEGRATOR_LIMIT_DEG
+
+
+@pytest.mark.parametrize("fraction", [0.0, -0.5, 3.0, float("nan")])
+def test_a_fraction_outside_its_range_is_refused(fraction):
+    with pytest.raises(ValueError, match="integral trim fraction must lie in"):
+        IntegralTrim(_Offset([0, 0, 0, 0.5]), fraction)
+
+
+def test_it_removes_the_shipped_policys_steady_errors_on_the_route():
+    from training.policy import PolicyRuntime
+
+    config = RouteConfig(altitude_m=1000.0, duration_s=200.0)
+    alone = steady_state_errors(fly_route(PolicyRuntime(None), config), 60.0)
+    trimmed = steady_state_errors(fly_route(IntegralTrim(PolicyRuntime(None), 0.5), config), 60.0)
+    assert alone["pitch_deg"] > 0.5 and trimmed["pitch_deg"] < 0.15
+    assert trimmed["roll_deg"] < alone["roll_deg"]
