@@ -5,7 +5,8 @@
 
 Starts ``scripts/train_torchrl.py`` (or resumes it: the soak's run folder is ``OUT/run``, and a
 killed soak goes on where it stopped), samples the trainer's resident set size every
-``--sample-s`` seconds into ``OUT/memory.csv`` (wall time, env steps, RSS), and prints a summary:
+``--sample-s`` seconds into ``OUT/memory.csv`` (wall time, env steps, RSS) and ``OUT/memory.png``,
+and prints a summary:
 RSS when the replay buffer fills, at the end, its maximum, and the growth per 100,000 steps after
 the buffer is full (a least-squares slope), which a leak-free run keeps near zero. The learning
 settings are the default run's, but with fewer updates per step (``--updates-per-step``) so that
@@ -63,6 +64,24 @@ def summarise(samples: np.ndarray, capacity: int) -> dict:
     return out
 
 
+def plot_memory(rows: np.ndarray, capacity: int, path: Path) -> None:
+    """Resident memory against env steps, with the step at which the buffer is full."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 3.5))
+    ax.plot(rows[:, 1] / 1e3, rows[:, 2], ".-", ms=3)
+    ax.axvline(capacity / 1e3, color="grey", ls="--", lw=0.8, label="replay buffer full")
+    ax.set_xlabel("env steps, thousands")
+    ax.set_ylabel("resident memory, MiB")
+    ax.legend(loc="lower right")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                 formatter_class=argparse.ArgumentDefaultsHelpFormatter)
@@ -104,8 +123,10 @@ def main(argv=None) -> int:
         return proc.returncode
     rows = np.loadtxt(memory_csv, delimiter=",", skiprows=1, ndmin=2)
     config = json.loads((run_dir / "config.json").read_text())
-    summary = summarise(rows, int(config["buffer"]["capacity"]))
+    capacity = int(config["buffer"]["capacity"])
+    summary = summarise(rows, capacity)
     (args.out / "summary.json").write_text(json.dumps(summary, indent=1))
+    plot_memory(rows, capacity, args.out / "memory.png")
     print(json.dumps(summary, indent=1))
     return 0
 

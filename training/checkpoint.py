@@ -27,12 +27,30 @@ class DamagedFileError(ValueError):
     """A checked file whose contents no longer match their checksum, or that cannot be read."""
 
 
-def checked_bytes(obj: Any) -> bytes:
-    """``obj`` as a checked file's bytes (``MAGIC``, SHA-256, ``torch.save`` payload)."""
-    buffer = io.BytesIO()
-    torch.save(obj, buffer)
-    payload = buffer.getvalue()
-    return MAGIC + hashlib.sha256(payload).digest() + payload
+class _HashingWriter(io.RawIOBase):
+    """A write-only file that passes every byte to ``fh`` and to a SHA-256, so that a checkpoint
+    is hashed as it is written, without a second copy of it in memory."""
+
+    def __init__(self, fh):
+        self.fh, self.sha = fh, hashlib.sha256()
+
+    def writable(self) -> bool:
+        return True
+
+    def write(self, data) -> int:
+        self.sha.update(data)
+        return self.fh.write(data)
+
+
+def write_checked(obj: Any, fh) -> None:
+    """Write ``obj`` as a checked file (``MAGIC``, SHA-256, ``torch.save`` payload) to the
+    seekable binary file ``fh``, from its start."""
+    fh.write(MAGIC + bytes(_DIGEST_SIZE))  # the digest's place, filled in once it is known
+    writer = _HashingWriter(fh)
+    torch.save(obj, writer)
+    fh.seek(len(MAGIC))
+    fh.write(writer.sha.digest())
+    fh.seek(0, io.SEEK_END)
 
 
 def checked_load(path: Path | str) -> Any:
@@ -89,11 +107,10 @@ def atomic_save(obj: Any, path: Path | str) -> None:
     flushed, then renamed over ``path``: a crash leaves the previous file whole."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    data = checked_bytes(obj)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
     try:
         with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
+            write_checked(obj, fh)
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)
