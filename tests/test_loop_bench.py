@@ -175,3 +175,26 @@ def test_loop_bench_writes_its_summary(tmp_path):
     assert summary == json.loads((tmp_path / "summary.json").read_text())
     assert summary["frames"] == 50 and summary["in_process"]["rmse_ratio"]["pitch_deg"] == pytest.approx(1.0, abs=1e-3)
     assert (tmp_path / "loop_bench.png").stat().st_size > 0
+
+
+class _Line:
+    """Stands in for the line: hands over the given bytes once."""
+
+    def __init__(self, data: bytes):
+        self.data = data
+
+    def poll(self, now, frame_bytes=0):
+        data, self.data = self.data, b""
+        return data
+
+
+def test_the_plant_refuses_a_well_formed_command_no_actuator_takes():
+    from jsbsim_env.bench.plant import Plant
+
+    plant = Plant(BenchConfig(mode="lockstep"))
+    link = new_link(2)
+    data = (encode_command(link, 0, [90.0, 0.0, 0.0, 0.5]) + encode_command(link, 40_000, [math.nan, 0, 0, 0.5])
+            + encode_command(link, 80_000, [5.0, -3.0, 1.0, 0.45]) + b"\xfd\x00garbage")
+    plant._receive(_Line(data), 1.0)
+    assert plant.counts["bad_commands"] == 2
+    assert list(plant.answers) == [80_000] and np.allclose(plant.answers[80_000][1], [5.0, -3.0, 1.0, 0.45])

@@ -36,6 +36,7 @@ from jsbsim_env.bench.link import EmulatedLine, Faults, open_pty
 from jsbsim_env.bench.node import percentiles_ms
 from jsbsim_env.bench.wire import PLANT_SYSTEM_ID, decode_command, encode_state, heartbeat, is_crc_error, new_link
 from jsbsim_env.controllers.pid import PIDAttitudeController
+from jsbsim_env.core import COMMAND_HIGH, COMMAND_LOW
 from jsbsim_env.missions import MissionResult, RouteConfig, RouteFlight
 
 NETWORK, HOLD, PID = 0, 1, 2
@@ -154,6 +155,7 @@ class _ControllerProcess:
             except subprocess.TimeoutExpired:
                 self.proc.kill()
                 self.proc.wait()
+        self.stderr.close()
         try:
             return json.loads(self.stats_path.read_text())
         except (OSError, ValueError):
@@ -168,11 +170,11 @@ class Plant:
         self.link = new_link(PLANT_SYSTEM_ID)
         self.frame_s = 1.0 / cfg.rate_hz
         self.answers: dict[int, tuple[float, np.ndarray]] = {}  # frame time (us) -> (arrival, command)
-        self.counts = {"crc_errors": 0, "bad_bytes": 0, "heartbeats": 0, "late_answers": 0}
+        self.counts = {"crc_errors": 0, "bad_bytes": 0, "bad_commands": 0, "heartbeats": 0, "late_answers": 0}
         self.controller_seen = False
 
     # ------------------------------------------------------------------ receiving
-    def _receive(self, line: EmulatedLine, now: float, waiting_for: int | None = None) -> None:
+    def _receive(self, line: EmulatedLine, now: float) -> None:
         data = line.poll(now, COMMAND_BYTES)
         if not data:
             return
@@ -185,10 +187,12 @@ class Plant:
                 self.controller_seen = True
             elif kind == "HIL_ACTUATOR_CONTROLS":
                 time_us, command = decode_command(message)
-                if np.all(np.isfinite(command)):
-                    self.answers[time_us] = (now, command)
+                # A well-formed message can still carry a command no actuator takes (NaN, out of
+                # range): it is counted and treated as no answer.
+                if np.all(command >= COMMAND_LOW - 1e-6) and np.all(command <= COMMAND_HIGH + 1e-6):
+                    self.answers[time_us] = (now, np.clip(command, COMMAND_LOW, COMMAND_HIGH))
                 else:
-                    self.counts["bad_bytes"] += 1
+                    self.counts["bad_commands"] += 1
 
     def _wait(self, fd: int, line: EmulatedLine, until: float) -> None:
         """Receive until wall time ``until`` (real time) or until something arrives."""
@@ -351,6 +355,7 @@ class Plant:
             "crc_errors_at_plant": self.counts["crc_errors"],
             "crc_errors_at_controller": controller.get("crc_errors"),
             "bad_bytes": self.counts["bad_bytes"] + int(controller.get("bad_bytes", 0)),
+            "bad_commands": self.counts["bad_commands"],
             "line_faults_injected": dict(line.counts),
             "failsafe_takeovers": failsafe.takeovers,
             "failsafe_events": failsafe.events,
