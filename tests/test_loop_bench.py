@@ -28,6 +28,7 @@ from jsbsim_env.bench.wire import (
     wire_command,
     wire_state,
 )
+from jsbsim_env.controllers.pid import PIDAttitudeController
 from jsbsim_env.missions import fly_route
 
 MEASUREMENT = np.array([10012.5, 0.031, -0.017, 0.002, -0.004, 0.011, 10.23, 0.052, -0.006, 0.01, -0.02, 0.003, 0.41])
@@ -198,3 +199,23 @@ def test_the_plant_refuses_a_well_formed_command_no_actuator_takes():
     plant._receive(_Line(data), 1.0)
     assert plant.counts["bad_commands"] == 2
     assert list(plant.answers) == [80_000] and np.allclose(plant.answers[80_000][1], [5.0, -3.0, 1.0, 0.45])
+
+
+class _Port:
+    def __init__(self):
+        self.written = []
+
+    def write(self, data):
+        self.written.append(data)
+
+
+def test_the_controller_node_answers_no_state_that_is_not_finite():
+    from jsbsim_env.bench.node import ControllerNode
+
+    node = ControllerNode(_Port(), PIDAttitudeController())
+    tx = new_link(1)
+    bad = MEASUREMENT.copy()
+    bad[2] = math.nan
+    node.handle(encode_state(tx, 0, bad, SETPOINT))
+    node.handle(encode_state(tx, 40_000, MEASUREMENT, SETPOINT))
+    assert node.counts["bad_frames"] == 1 and node.counts["answered"] == 1 and len(node.port.written) == 1

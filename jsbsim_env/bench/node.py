@@ -79,7 +79,8 @@ class ControllerNode:
         self.assembler = FrameAssembler()
         self.compute_s: list[float] = []
         self.counts = {"answered": 0, "skipped_stale": 0, "crc_errors": 0, "bad_bytes": 0, "sequence_gaps": 0,
-                       "resets": 0, "stalls": 0}
+                       "resets": 0, "stalls": 0, "bad_frames": 0, "controller_errors": 0}
+        self.last_error: str | None = None
         self._last_frame_us: int | None = None
         self._expected_seq: int | None = None
         self._stalled = False
@@ -87,7 +88,7 @@ class ControllerNode:
         self.running = True
 
     def stats(self) -> dict:
-        return {**self.counts, "incomplete_frames": self.assembler.incomplete,
+        return {**self.counts, "incomplete_frames": self.assembler.incomplete, "last_error": self.last_error,
                 "compute_ms": percentiles_ms(self.compute_s)}
 
     def _sequence(self, message) -> None:
@@ -128,8 +129,16 @@ class ControllerNode:
             self.controller.reset()
             self.counts["resets"] += 1
         self._last_frame_us = frame.time_us
+        if not (np.all(np.isfinite(frame.measurement)) and np.all(np.isfinite(frame.setpoint))):
+            self.counts["bad_frames"] += 1  # well-formed but not a state: no answer, the plant's failsafe acts
+            return
         start = time.perf_counter()
-        command = self.controller.update(self.dt_s, frame.measurement, frame.setpoint)
+        try:
+            command = self.controller.update(self.dt_s, frame.measurement, frame.setpoint)
+        except ValueError as err:  # the controller refused its input (ActionError, CommandError, ...)
+            self.counts["controller_errors"] += 1
+            self.last_error = str(err)
+            return
         self.compute_s.append(time.perf_counter() - start)
         self.port.write(encode_command(self.link, frame.time_us, command))
         self.counts["answered"] += 1
