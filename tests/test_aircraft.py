@@ -251,6 +251,11 @@ def test_model_fingerprint_follows_the_model_not_the_initial_conditions(tmp_path
     reset.write_text(reset.read_text().replace("<psi unit=\"DEG\"> 0 </psi>", "<psi unit=\"DEG\"> 90 </psi>"))
     assert "90 </psi>" in reset.read_text()
     assert aircraft.model_fingerprint(folder=folder) == aircraft.model_fingerprint()
+    top = folder / "solar_uav.xml"  # documentation only: status, header notes, comments
+    top.write_text(top.read_text().replace('release="ANALYTICAL"', 'release="PRODUCTION"')
+                   .replace("<author>solar-uav-rl</author>", "<author>someone else</author><!-- edited -->"))
+    assert "PRODUCTION" in top.read_text() and "someone else" in top.read_text()
+    assert aircraft.model_fingerprint(folder=folder) == aircraft.model_fingerprint()
     mass = folder / "MassBalance.xml"
     mass.write_text(mass.read_text().replace("<emptywt unit=\"KG\"> 359 </emptywt>", "<emptywt unit=\"KG\"> 360 </emptywt>"))
     assert "360 </emptywt>" in mass.read_text()

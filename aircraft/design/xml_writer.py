@@ -125,7 +125,7 @@ def _location(tag_name: str, xyz_m, name: str | None = None, indent: str = "    
 
 
 def top_file(g: AircraftGeometry) -> str:
-    return HEADER + f"""<fdm_config name="solar_uav" version="2.0" release="BETA">
+    return HEADER + f"""<fdm_config name="solar_uav" version="2.0" release="ANALYTICAL">
   <fileheader>
     <author>solar-uav-rl</author>
     <description>Large solar-powered UAV: 35 m span, {fmt(g.mass_kg)} kg, four electric propellers,
@@ -133,6 +133,8 @@ def top_file(g: AircraftGeometry) -> str:
       Aerodynamics from the documented geometry in aircraft/design (AeroSandbox vortex lattice,
       AeroBuildup with NeuralFoil, strip theory for the control surfaces).</description>
     <note>Rigid-body model: the paper's elastic-deformation terms are left out.</note>
+    <note>Status ANALYTICAL: every coefficient comes from analysis of the documented geometry and
+      mass; none is fitted to flight or wind-tunnel data.</note>
   </fileheader>
   <metrics file="Metrics.xml"/>
   <mass_balance file="MassBalance.xml"/>
