@@ -89,6 +89,8 @@ class CoreConfig:
     # rates at the clip 15-36 % of the time.
     turbulence_clip: str = "4sigma"
     backlash_deg: float = 0.0
+    noise_scale: float = 1.0  # multiplies every SPEC Table 3 sigma (robustness sweeps)
+    parameter_strength: float = 1.0  # multiplies each Table 4 draw's distance from 1 (0: nominal aircraft)
     altitude_range_m: tuple[float, float] = (500.0, 20000.0)
     eas_range_mps: tuple[float, float] = EAS_RANGE_MPS
     # Start perturbation about the trim: uniform within +- these.
@@ -99,6 +101,9 @@ class CoreConfig:
     envelope: Envelope = field(default_factory=Envelope)
 
     def __post_init__(self):
+        if not (self.noise_scale >= 0.0 and self.parameter_strength >= 0.0):
+            raise ValueError(f"noise_scale and parameter_strength must be >= 0, got {self.noise_scale} and "
+                             f"{self.parameter_strength}")
         if self.turbulence_intensity != turb.PAPER and self.turbulence_intensity not in turb.SEVERITIES:
             raise ValueError(f"turbulence_intensity {self.turbulence_intensity!r}: use {turb.PAPER!r} or one of "
                              f"{sorted(turb.SEVERITIES)}")
@@ -158,7 +163,8 @@ class FlightCore:
         self.config = config or CoreConfig()
         self.root = root
         self.trim_table = TrimTable.shared(root)
-        self.noise = dist.OrnsteinUhlenbeckNoise(NOISE_SIGMA, self.config.noise_reversion_per_s)
+        self.noise = dist.OrnsteinUhlenbeckNoise([self.config.noise_scale * s for s in NOISE_SIGMA],
+                                                 self.config.noise_reversion_per_s)
         self._command_scale = (1.0 / SURFACE_LIMITS_DEG["aileron"], 1.0 / SURFACE_LIMITS_DEG["elevator"],
                                1.0 / SURFACE_LIMITS_DEG["rudder"], 1.0)
         self._load()
@@ -211,7 +217,11 @@ class FlightCore:
         perturb = rng.uniform(-1.0, 1.0, size=7)
         drawn_scales = dist.draw_scales(dist.RANDOMISED, rng)  # drawn even when a fixed set overrides it
         chosen = parameters or cfg.parameters
-        scales = drawn_scales if chosen == dist.RANDOMISED else dist.draw_scales(chosen, rng)
+        if chosen == dist.RANDOMISED:
+            k = cfg.parameter_strength  # applied after the draw, so the random stream is the same
+            scales = drawn_scales if k == 1.0 else {name: 1.0 + k * (v - 1.0) for name, v in drawn_scales.items()}
+        else:
+            scales = dist.draw_scales(chosen, rng)
         turbulence_seed = int(rng.integers(2**31 - 1))
         jsbsim_seed = int(rng.integers(2**31 - 1))
         noise_seed = int(rng.integers(2**63))

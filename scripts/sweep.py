@@ -1,0 +1,144 @@
+"""Robustness sweep: controllers over a grid of conditions, on identical seeded episodes.
+
+    python scripts/sweep.py --axis delay_ms=0,100,200,300 --axis noise_scale=0,2,8 --episodes 10
+    python scripts/sweep.py --axis turbulence_sigma_mps=0,1,2,3 --backend ray
+    python scripts/sweep.py --axis backlash_deg=0,0.5,1 --controllers pid --backend local --workers 2
+
+Writes to ``--out``: ``sweep.csv`` (one row per controller x condition x episode: return, early
+end and why, RMSE per axis, error over the last 2 s, surface activity), ``sweep.json`` (the rows,
+the command and a summary: mean return and early ends per controller and condition, and where
+each controller first ended an episode early along each axis), ``command.txt`` and one PNG per
+axis (each controller's mean return and pitch RMSE against the axis, with their spread over
+episodes and the other axes). Axes and units: ``training/sweep.py``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import shlex
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from jsbsim_env.metrics import json_ready
+from training.sweep import AXIS_UNITS, breaking_points, grid, jobs_for, parse_axis, run_local, run_ray
+
+
+def parse_args(argv=None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p.add_argument("--axis", action="append", default=[], metavar="NAME=V1,V2,...",
+                   help=f"an axis and its values (repeatable): {', '.join(f'{k} ({v})' for k, v in AXIS_UNITS.items())}")
+    p.add_argument("--controllers", default="policy,pid", help="comma-separated: policy, pid")
+    p.add_argument("--policy", default=None, help="policy file (.pt); the shipped policy when omitted")
+    p.add_argument("--episodes", type=int, default=10, help="seeded episodes per controller and condition")
+    p.add_argument("--out", type=Path, default=Path("runs/sweep"), help="folder for the table, JSON and plots")
+    p.add_argument("--backend", choices=("local", "ray"), default="local",
+                   help="local: a process pool; ray: Ray tasks (pip install '.[ray]')")
+    p.add_argument("--workers", type=int, default=1, help="processes of the local backend")
+    p.add_argument("--address", default=None, help="ray backend: a cluster's address ('auto': this machine's); "
+                                                   "a local Ray instance when omitted")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
+    return p.parse_args(argv)
+
+
+def summarise(rows: list[dict], axes: dict[str, list[float]]) -> dict:
+    """Mean return, early ends and pitch RMSE per controller and condition; breaking points."""
+    keys = [f"axis_{a}" for a in axes]
+    groups: dict[tuple, list[dict]] = {}
+    for r in rows:
+        groups.setdefault((r["controller"], *(r[k] for k in keys)), []).append(r)
+    table = [{"controller": g[0], **dict(zip(axes, g[1:])), "episodes": len(rs),
+              "mean_return": float(np.mean([r["return_norm"] for r in rs])),
+              "early_ends": sum(r["ended_early"] for r in rs),
+              "mean_rmse_pitch_deg": float(np.mean([r["rmse_pitch_deg"] for r in rs])),
+              "mean_rmse_beta_deg": float(np.mean([r["rmse_beta_deg"] for r in rs]))} for g, rs in groups.items()]
+    return {"conditions": table, "first_early_end": {a: breaking_points(rows, a) for a in axes}}
+
+
+def plot_axis(rows: list[dict], axis: str, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(1, 2, figsize=(10, 3.6))
+    for c in sorted({r["controller"] for r in rows}):
+        mine = [r for r in rows if r["controller"] == c]
+        values = sorted({r[f"axis_{axis}"] for r in mine})
+        for j, (key, label) in enumerate((("return_norm", "normalised return"), ("rmse_pitch_deg", "pitch RMSE, deg"))):
+            per = [np.array([r[key] for r in mine if r[f"axis_{axis}"] == v]) for v in values]
+            mean = np.array([p.mean() for p in per])
+            ax[j].plot(values, mean, "o-", label=c)
+            ax[j].fill_between(values, [np.percentile(p, 10) for p in per], [np.percentile(p, 90) for p in per],
+                               alpha=0.2)
+            ax[j].set_ylabel(label)
+            ax[j].set_xlabel(f"{axis} ({AXIS_UNITS[axis]})")
+    ax[0].legend()
+    fig.suptitle(f"sweep over {axis}: mean and 10-90 % of episodes")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main(argv=None) -> int:
+    args = parse_args(argv)
+    try:
+        axes = dict(parse_axis(a) for a in args.axis)
+        if not axes:
+            raise ValueError("give at least one --axis NAME=V1,V2,...")
+        controllers = [c.strip() for c in args.controllers.split(",") if c.strip()]
+        bad = [c for c in controllers if c not in ("policy", "pid")]
+        if bad or not controllers:
+            raise ValueError(f"--controllers takes policy and/or pid, got {args.controllers!r}")
+        if args.episodes < 1 or args.workers < 1:
+            raise ValueError("--episodes and --workers must be at least 1")
+    except ValueError as err:
+        print(f"sweep: {err}", file=sys.stderr)
+        return 2
+    from tqdm import tqdm
+
+    jobs = jobs_for(controllers, grid(axes), args.episodes)
+    bar = tqdm(total=len(jobs), desc=f"sweep ({args.backend})", unit="job", file=sys.stderr)
+    started = time.perf_counter()
+    try:
+        if args.backend == "ray":
+            rows = run_ray(jobs, args.policy, args.address, bar.update)
+        else:
+            rows = run_local(jobs, args.policy, args.workers, bar.update)
+    except RuntimeError as err:
+        print(f"sweep: {err}", file=sys.stderr)
+        return 2
+    finally:
+        bar.close()
+    wall_s = time.perf_counter() - started
+    args.out.mkdir(parents=True, exist_ok=True)
+    command = shlex.join(["python", "scripts/sweep.py", *(sys.argv[1:] if argv is None else argv)])
+    (args.out / "command.txt").write_text(command + "\n")
+    with (args.out / "sweep.csv").open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    flights = len(rows)
+    summary = {"command": command, "backend": args.backend, "wall_s": wall_s, "flights": flights,
+               "flights_per_core_second": flights / (wall_s * (args.workers if args.backend == "local" else 1)),
+               **summarise(rows, axes)}
+    (args.out / "sweep.json").write_text(json.dumps(json_ready({**summary, "rows": rows}), indent=1))
+    for axis in axes:
+        plot_axis(rows, axis, args.out / f"{axis}.png")
+    if args.json:
+        print(json.dumps(json_ready(summary), indent=1))
+    else:
+        print(f"{flights} flights in {wall_s:.0f} s; written to {args.out}/")
+        for axis, points in summary["first_early_end"].items():
+            print(f"  first early end along {axis}: " + ", ".join(
+                f"{c} {'never' if v is None else f'at {v:g} {AXIS_UNITS[axis]}'}" for c, v in points.items()))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
