@@ -106,8 +106,9 @@ def main(argv=None) -> int:
     bar = tqdm(total=len(jobs), desc=f"sweep ({args.backend})", unit="job", file=sys.stderr)
     started = time.perf_counter()
     try:
+        info = {"cpus": float(args.workers)}
         if args.backend == "ray":
-            rows = run_ray(jobs, args.policy, args.address, bar.update)
+            rows = run_ray(jobs, args.policy, args.address, bar.update, info)
         else:
             rows = run_local(jobs, args.policy, args.workers, bar.update)
     except RuntimeError as err:
@@ -124,8 +125,8 @@ def main(argv=None) -> int:
         writer.writeheader()
         writer.writerows(rows)
     flights = len(rows)
-    summary = {"command": command, "backend": args.backend, "wall_s": wall_s, "flights": flights,
-               "flights_per_core_second": flights / (wall_s * (args.workers if args.backend == "local" else 1)),
+    summary = {"command": command, "backend": args.backend, "cores": info["cpus"], "wall_s": wall_s,
+               "flights": flights, "flights_per_core_second": flights / (wall_s * info["cpus"]),
                **summarise(rows, axes)}
     (args.out / "sweep.json").write_text(json.dumps(json_ready({**summary, "rows": rows}), indent=1))
     for axis in axes:

@@ -157,9 +157,11 @@ def run_local(jobs: list[Job], policy: str | None = None, workers: int = 1, prog
     return [row for rows in results for row in rows]
 
 
-def run_ray(jobs: list[Job], policy: str | None = None, address: str | None = None, progress=None) -> list[dict]:
+def run_ray(jobs: list[Job], policy: str | None = None, address: str | None = None, progress=None,
+            info: dict | None = None) -> list[dict]:
     """Run ``jobs`` as Ray tasks: a local Ray instance (started and shut down here) unless
-    ``address`` names a cluster (``"auto"``: the one this machine belongs to)."""
+    ``address`` names a cluster (``"auto"``: the one this machine belongs to). ``info``, where
+    given, receives the cluster's CPUs (``"cpus"``)."""
     try:
         import ray
     except ImportError:
@@ -169,6 +171,8 @@ def run_ray(jobs: list[Job], policy: str | None = None, address: str | None = No
         ray.init(address=address, include_dashboard=False, log_to_driver=False,
                  runtime_env={"env_vars": {"OMP_NUM_THREADS": "1"}})
     try:
+        if info is not None:
+            info["cpus"] = float(ray.cluster_resources().get("CPU", 1.0))
         task = ray.remote(num_cpus=1)(run_job)
         refs = [task.remote(job, policy) for job in jobs]
         index = {ref: i for i, ref in enumerate(refs)}
