@@ -35,12 +35,23 @@ def main(argv: list[str] | None = None) -> int:
                              "(SPEC section 3; default: default)")
     parser.add_argument("--json", action="store_true",
                         help="print the last log row as JSON on stdout (everything else goes to stderr)")
+    parser.add_argument("--seeds", help="train these seeds (comma-separated), each its own run "
+                                        "<run-name>_seed<N>; the same command again resumes them (default: one run)")
+    parser.add_argument("--backend", choices=("local", "ray"), default="local",
+                        help="with --seeds: local processes, or Ray tasks (pip install '.[ray]') (default: local)")
+    parser.add_argument("--workers", type=int, default=1, help="with --seeds --backend local: processes (default: 1)")
+    parser.add_argument("--address", help="with --backend ray: a Ray cluster's address ('auto': this machine's; "
+                                          "default: a local Ray instance)")
     TrainConfig.add_arguments(parser)
     args = parser.parse_args(argv)
     _log_to_stderr()
     tune_allocator()
     if args.resume and args.preset != "default":
         parser.error("--preset starts a new run; a resumed run keeps the settings it was started with")
+    if args.seeds is not None:
+        if args.resume:
+            parser.error("--seeds resumes its runs itself: give the same command again instead of --resume")
+        return _train_seeds(args, argv)
     try:
         if args.resume:
             config_path = args.resume / "config.json"
@@ -71,6 +82,33 @@ def main(argv: list[str] | None = None) -> int:
     else:
         print(f"trained to {trainer.counters.frames:,} env steps in {trainer.counters.wall_s:.0f} s; "
               f"best policy: {run_dir / 'best_policy.pt'}")
+    return 0
+
+
+def _train_seeds(args, argv) -> int:
+    """Several seeds of one configuration (``training.multiseed``), then their summary."""
+    from training.multiseed import seeds_summary, train_seeds
+
+    try:
+        seeds = [int(x) for x in args.seeds.split(",") if x.strip()]
+        config = TrainConfig.from_namespace(args, base=TrainConfig.preset(args.preset))
+        name = args.run_name or f"sac_{time.strftime('%Y%m%d-%H%M%S')}"
+        command = ["python", "scripts/train_torchrl.py", *(sys.argv[1:] if argv is None else argv)]
+        rows = train_seeds(config, seeds, name, command, args.backend, args.workers, args.address)
+    except (CheckpointError, RunLockedError, ValueError, RuntimeError) as err:
+        print(f"train_torchrl: {err}", file=sys.stderr)
+        return 2
+    root = Path(config.log.run_root)
+    summary = seeds_summary([Path(r["run_dir"]) for r in rows], root / f"{name}_fig8.png")
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    else:
+        for run in summary["runs"]:
+            print(f"{run['run']}: {run['frames']:,} env steps, final evaluation return "
+                  f"{run.get('final_eval_return', float('nan')):.3f}")
+        if "final_eval_return" in summary:
+            f = summary["final_eval_return"]
+            print(f"over {f['seeds']} seeds: {f['mean']:.3f} ({f['min']:.3f}-{f['max']:.3f}); curves in {summary['figure']}")
     return 0
 
 

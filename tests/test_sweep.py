@@ -123,3 +123,30 @@ def test_a_missing_ray_is_a_clear_message(monkeypatch):
     monkeypatch.setitem(sys.modules, "ray", None)
     with pytest.raises(RuntimeError, match=r"pip install '.\[ray\]'"):
         run_ray([])
+
+
+TINY = ["--env.num_envs", "4", "--collector.frames_per_batch", "32", "--collector.init_random_frames", "64",
+        "--collector.total_frames", "96", "--buffer.capacity", "5000", "--buffer.batch_size", "16",
+        "--network.lstm_hidden", "8", "--network.mlp_hidden", "16", "--log.eval_every_frames", "96",
+        "--log.eval_episodes", "1", "--log.eval_max_steps", "5", "--log.checkpoint_every_frames", "96",
+        "--log.log_every_frames", "32", "--log.progress", "false"]
+
+
+@pytest.mark.parametrize("backend", ["local", "ray"])
+def test_several_seeds_train_as_their_own_runs_and_resume(backend, tmp_path, capsys):
+    if backend == "ray":
+        pytest.importorskip("ray")
+    script = _script("train_torchrl")
+    args = ["--seeds", "3,4", "--backend", backend, "--run-name", "tiny", "--log.run_root", str(tmp_path), *TINY,
+            "--json"]
+    assert script.main(args) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert [Path(r["run"]).name for r in summary["runs"]] == ["tiny_seed3", "tiny_seed4"]
+    assert all(r["frames"] == 96 for r in summary["runs"]) and summary["final_eval_return"]["seeds"] == 2
+    assert (tmp_path / "tiny_fig8.png").stat().st_size > 0
+    configs = [json.loads((tmp_path / f"tiny_seed{s}" / "config.json").read_text()) for s in (3, 4)]
+    assert [c["seed"] for c in configs] == [3, 4]
+    # The same command with more frames resumes both.
+    assert script.main([*args[:-1], "--collector.total_frames", "128", "--json"]) == 0
+    again = json.loads(capsys.readouterr().out)
+    assert all(r["frames"] == 128 for r in again["runs"])

@@ -1,0 +1,95 @@
+"""Several seeds of one configuration, each its own run (folder, checkpoints, resume), as Ray tasks
+or in a process pool, with a summary over the seeds at the end (SPEC Fig. 8 with its spread).
+
+Each seed trains in ``RUN_ROOT/<name>_seed<N>`` on one torch thread. Running the same command
+again resumes every seed from its checkpoint, so a killed batch loses at most one checkpoint
+interval per seed.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from training.config import TrainConfig
+
+
+def train_seed(config: dict, run_dir: str, command: list[str]) -> dict:
+    """Train (or resume) one seed's run; returns its last log row with ``run_dir``."""
+    from training.provenance import append_session
+    from training.runtime import tune_allocator
+    from training.trainer import Trainer
+
+    tune_allocator()
+    path = Path(run_dir)
+    resume = (path / "checkpoint.pt").is_file()
+    trainer = Trainer(TrainConfig.from_dict(config), path, resume=resume)
+    append_session(path, command, trainer.counters.frames)
+    return {"run_dir": run_dir, "resumed": resume, **trainer.train()}
+
+
+def seed_runs(config: TrainConfig, seeds: list[int], name: str) -> list[tuple[dict, str]]:
+    """(settings, run folder) of each seed."""
+    out = []
+    for seed in seeds:
+        c = TrainConfig.from_dict(config.to_dict())
+        c.seed = seed
+        c.threads = 1
+        out.append((c.to_dict(), str(Path(c.log.run_root) / f"{name}_seed{seed}")))
+    return out
+
+
+def train_seeds(config: TrainConfig, seeds: list[int], name: str, command: list[str], backend: str = "local",
+                workers: int = 1, address: str | None = None) -> list[dict]:
+    """Train every seed (``backend`` "local": ``workers`` processes; "ray": Ray tasks, a local Ray
+    instance unless ``address`` names a cluster); returns their last log rows, in seed order."""
+    if len(set(seeds)) != len(seeds) or not seeds:
+        raise ValueError(f"seeds must be distinct and at least one, got {seeds}")
+    runs = seed_runs(config, seeds, name)
+    if backend == "ray":
+        try:
+            import ray
+        except ImportError:
+            raise RuntimeError("the ray backend needs Ray: pip install '.[ray]' (or use --backend local)") from None
+        started = not ray.is_initialized()
+        if started:
+            ray.init(address=address, include_dashboard=False, log_to_driver=False,
+                     runtime_env={"env_vars": {"OMP_NUM_THREADS": "1"}})
+        try:
+            task = ray.remote(num_cpus=1, max_retries=0)(train_seed)
+            return ray.get([task.remote(c, d, command) for c, d in runs])
+        finally:
+            if started:
+                ray.shutdown()
+    if backend != "local":
+        raise ValueError(f"backend must be 'local' or 'ray', got {backend!r}")
+    if workers <= 1:
+        return [train_seed(c, d, command) for c, d in runs]
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    # Fresh interpreters: a forked copy of a process that has run torch can deadlock.
+    with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+        return list(pool.map(train_seed, *zip(*[(c, d, command) for c, d in runs])))
+
+
+def seeds_summary(run_dirs: list[Path], figure: Path | None = None) -> dict:
+    """Each run's summary (``curves.run_summary``) and the final evaluation return over the seeds
+    (mean, min, max); the Fig. 8 curves with their spread to ``figure``."""
+    from training.curves import plot_curves, run_summary
+
+    runs = [run_summary(Path(d)) for d in run_dirs]
+    finals = [r["final_eval_return"] for r in runs if r.get("final_eval_return") is not None]
+    out = {"runs": runs}
+    if finals:
+        out["final_eval_return"] = {"mean": float(np.mean(finals)), "min": float(min(finals)),
+                                    "max": float(max(finals)), "seeds": len(finals)}
+    if figure is not None:
+        plot_curves([Path(d) for d in run_dirs], figure)
+        out["figure"] = str(figure)
+    return json.loads(json.dumps(out))
+
+
+__all__ = ["seed_runs", "seeds_summary", "train_seed", "train_seeds"]
