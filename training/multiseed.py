@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from training.config import TrainConfig
+from training.ray_session import ray_session
 
 
 def train_seed(config: dict, run_dir: str, command: list[str]) -> dict:
@@ -49,20 +50,9 @@ def train_seeds(config: TrainConfig, seeds: list[int], name: str, command: list[
         raise ValueError(f"seeds must be distinct and at least one, got {seeds}")
     runs = seed_runs(config, seeds, name)
     if backend == "ray":
-        try:
-            import ray
-        except ImportError:
-            raise RuntimeError("the ray backend needs Ray: pip install '.[ray]' (or use --backend local)") from None
-        started = not ray.is_initialized()
-        if started:
-            ray.init(address=address, include_dashboard=False, log_to_driver=False,
-                     runtime_env={"env_vars": {"OMP_NUM_THREADS": "1"}})
-        try:
+        with ray_session(address) as ray:
             task = ray.remote(num_cpus=1, max_retries=0)(train_seed)
             return ray.get([task.remote(c, d, command) for c, d in runs])
-        finally:
-            if started:
-                ray.shutdown()
     if backend != "local":
         raise ValueError(f"backend must be 'local' or 'ray', got {backend!r}")
     if workers <= 1:

@@ -29,6 +29,7 @@ import numpy as np
 
 from jsbsim_env.core import CoreConfig
 from jsbsim_env.task import AttitudeTaskBatch, TaskConfig
+from training.ray_session import ray_session
 
 SWEEP_EPISODE_SEED = 31_000  # episode k of every condition uses seed SWEEP_EPISODE_SEED + k
 
@@ -162,15 +163,7 @@ def run_ray(jobs: list[Job], policy: str | None = None, address: str | None = No
     """Run ``jobs`` as Ray tasks: a local Ray instance (started and shut down here) unless
     ``address`` names a cluster (``"auto"``: the one this machine belongs to). ``info``, where
     given, receives the cluster's CPUs (``"cpus"``)."""
-    try:
-        import ray
-    except ImportError:
-        raise RuntimeError("the ray backend needs Ray: pip install '.[ray]' (or use --backend local)") from None
-    started = not ray.is_initialized()
-    if started:
-        ray.init(address=address, include_dashboard=False, log_to_driver=False,
-                 runtime_env={"env_vars": {"OMP_NUM_THREADS": "1"}})
-    try:
+    with ray_session(address) as ray:
         if info is not None:
             info["cpus"] = float(ray.cluster_resources().get("CPU", 1.0))
         task = ray.remote(num_cpus=1)(run_job)
@@ -184,9 +177,6 @@ def run_ray(jobs: list[Job], policy: str | None = None, address: str | None = No
             if progress is not None:
                 progress(1)
         return [row for rows in results for row in rows]
-    finally:
-        if started:
-            ray.shutdown()
 
 
 def breaking_points(rows: list[dict], axis: str) -> dict[str, float | None]:
