@@ -56,6 +56,14 @@ class TrimTable:
         with cls._lock:
             return cls._shared.setdefault((table.root, aircraft_name), table)
 
+    @classmethod
+    def forget_shared(cls) -> None:
+        """Drop this process's shared tables. A node's trim starts from the state the table's
+        simulation was left in by the node before, which moves it by about 1e-9; work that must
+        give the same numbers in any process (a sweep's jobs) starts from empty tables."""
+        with cls._lock:
+            cls._shared.clear()
+
     def _node(self, i: int, j: int) -> np.ndarray:
         key = (i, j)
         if key not in self._cells:

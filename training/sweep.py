@@ -3,8 +3,9 @@
 Each axis changes one setting of the flight core from the training setting (SPEC sections 2-3,
 every disturbance on); a grid is every combination of the axes' values. Every controller flies
 the same ``episodes`` seeded training-style episodes (random goals, start perturbation) under
-each condition, so the rows differ only by the controller. Each episode depends only on its seed
-and its condition, so the numbers do not depend on how the work is spread over processes.
+each condition, so the rows differ only by the controller. The work is cut into the same jobs
+whatever the backend, and each job starts from an empty trim table, so the numbers do not
+depend on how the jobs are spread over processes.
 
 | axis | unit | what it sets |
 |---|---|---|
@@ -107,8 +108,10 @@ def make_controller(name: str, policy: str | None = None):
 
 def run_job(job: Job, policy: str | None = None) -> list[dict]:
     """Fly a job's episodes; one row per episode (the table's schema: ``ROW_FIELDS``)."""
+    from jsbsim_env.trim_table import TrimTable
     from training.suite import fly
 
+    TrimTable.forget_shared()  # the job's numbers must not depend on what this process flew before
     controller = make_controller(job.controller, policy)
     batch = AttitudeTaskBatch(1, condition_config(job.condition))
     rows = []
