@@ -150,6 +150,7 @@ class RouteFlight:
         self._commands = np.full((self.steps, 4), np.nan)
         self._surfaces = np.full((self.steps, 4), np.nan)
         self._pending: tuple | None = None  # this step's demands, between demand() and advance()
+        self.navigation = None  # the navigation the last demand() read
 
     @property
     def done(self) -> bool:
@@ -174,6 +175,7 @@ class RouteFlight:
                                   cfg.altitude_m, cfg.eas_mps, point.throttle_trim, point.tas_accel_per_throttle_mps2,
                                   math.radians(point.pitch_trim_deg))
         setpoint = np.array([guidance.roll_rad, energy.pitch_rad, cfg.eas_mps])
+        self.navigation = nav
         self._pending = (nav, guidance.cross_track_m, setpoint, energy.throttle)
         return m, setpoint
 

@@ -29,7 +29,7 @@ class SolarUAVAttitudeEnv(EnvBase):
 
     Keys: ``observation`` (num_envs, 20, or ``config.observation_size``) float32, ``action`` (num_envs, 4) in [-1, 1],
     ``reward`` (num_envs, 1), ``done``/``terminated``/``truncated`` (num_envs, 1), with
-    ``critic_state`` ``state`` (num_envs, ``config.critic_state_size``): the critics' state, known in
+    ``critic_state`` also ``state`` (num_envs, ``config.critic_state_size``): the critics' state, known in
     simulation only (``task.AttitudeTaskBatch.critic_states``), and ``reward_terms`` (num_envs, 4): the
     penalties of ``task.REWARD_TERMS``, with
     ``reward = 1 - reward_terms.sum(-1)``, and ``achieved`` (num_envs, 4): the true roll, pitch

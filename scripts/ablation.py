@@ -22,9 +22,9 @@ import numpy as np
 import torch
 
 import aircraft
-from jsbsim_env.controllers.integral_trim import IntegralTrim
 from jsbsim_env.controllers.pid import PIDAttitudeController
-from training.policy import PolicyRuntime, load_policy, policy_digest
+from training.controllers import make_controller
+from training.policy import load_policy, policy_digest
 from training.provenance import training_wall_clock
 from training.report import run_report
 from training.suite import suite_episodes
@@ -77,13 +77,9 @@ def run_scorecard(run_dir: Path, episodes: int, quick: bool = False, integral_tr
     """The scores of the run's best policy (with integral trim of that fraction, where > 0), with the
     wall-clock the run took to reach it."""
     policy = run_dir / "best_policy.pt"
-
-    def controller():
-        runtime = PolicyRuntime(policy, backend="torch")
-        return IntegralTrim(runtime, integral_trim) if integral_trim else runtime
-
     folder = run_dir / (f"scorecard_trim{integral_trim:g}" if integral_trim else "scorecard")
-    card = score(controller, folder, policy, episodes, quick, integral_trim)
+    card = score(lambda: make_controller("policy", policy, integral_trim, backend="torch"), folder, policy, episodes,
+                 quick, integral_trim)
     frames = int(load_policy(policy)[1]["frames"])
     return {**card, "run": str(run_dir), "policy_frames": frames, "wall_clock": training_wall_clock(run_dir, frames)}
 

@@ -51,9 +51,9 @@ def parse_args(argv=None) -> argparse.Namespace:
 
 def in_process(args) -> dict:
     """The same route, controller and seed flown in this process (``missions.fly_route``)."""
-    from jsbsim_env.bench.node import make_controller
     from jsbsim_env.bench.plant import bench_route
     from jsbsim_env.missions import fly_route
+    from training.controllers import make_controller
 
     result = fly_route(make_controller(args.controller, args.policy, args.integral_trim),
                        bench_route(args.duration, args.seed))

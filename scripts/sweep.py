@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from jsbsim_env.metrics import json_ready
+from training.controllers import CONTROLLER_NAMES
 from training.sweep import AXIS_UNITS, breaking_points, grid, jobs_for, parse_axis, run_local, run_ray
 
 
@@ -92,7 +93,7 @@ def main(argv=None) -> int:
         if not axes:
             raise ValueError("give at least one --axis NAME=V1,V2,...")
         controllers = [c.strip() for c in args.controllers.split(",") if c.strip()]
-        bad = [c for c in controllers if c not in ("policy", "pid")]
+        bad = [c for c in controllers if c not in CONTROLLER_NAMES]
         if bad or not controllers:
             raise ValueError(f"--controllers takes policy and/or pid, got {args.controllers!r}")
         if args.episodes < 1 or args.workers < 1:

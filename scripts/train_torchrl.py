@@ -48,10 +48,12 @@ def main(argv: list[str] | None = None) -> int:
     tune_allocator()
     if args.resume and args.preset != "default":
         parser.error("--preset starts a new run; a resumed run keeps the settings it was started with")
+    # The command as the run's sessions record it.
+    command = ["python", "scripts/train_torchrl.py", *(sys.argv[1:] if argv is None else argv)]
     if args.seeds is not None:
         if args.resume:
             parser.error("--seeds resumes its runs itself: give the same command again instead of --resume")
-        return _train_seeds(args, argv)
+        return _train_seeds(args, command)
     try:
         if args.resume:
             config_path = args.resume / "config.json"
@@ -68,8 +70,7 @@ def main(argv: list[str] | None = None) -> int:
     except (CheckpointError, RunLockedError, ValueError) as err:
         print(f"train_torchrl: {err}", file=sys.stderr)
         return 2
-    append_session(run_dir, ["python", "scripts/train_torchrl.py", *(sys.argv[1:] if argv is None else argv)],
-                   trainer.counters.frames)
+    append_session(run_dir, command, trainer.counters.frames)
     print(f"run folder: {run_dir}", file=sys.stderr)
     try:
         last = trainer.train()
@@ -85,7 +86,7 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-def _train_seeds(args, argv) -> int:
+def _train_seeds(args, command: list[str]) -> int:
     """Several seeds of one configuration (``training.multiseed``), then their summary."""
     from training.multiseed import seeds_summary, train_seeds
 
@@ -93,7 +94,6 @@ def _train_seeds(args, argv) -> int:
         seeds = [int(x) for x in args.seeds.split(",") if x.strip()]
         config = TrainConfig.from_namespace(args, base=TrainConfig.preset(args.preset))
         name = args.run_name or f"sac_{time.strftime('%Y%m%d-%H%M%S')}"
-        command = ["python", "scripts/train_torchrl.py", *(sys.argv[1:] if argv is None else argv)]
         rows = train_seeds(config, seeds, name, command, args.backend, args.workers, args.address)
     except (CheckpointError, RunLockedError, ValueError, RuntimeError) as err:
         print(f"train_torchrl: {err}", file=sys.stderr)

@@ -35,7 +35,7 @@ class EnvSettings:
 @dataclass
 class CollectorSettings:
     # SPEC: converged in about 0.2 M; on the corrected aircraft our runs' evaluation return levels
-    # off from about 80k steps (README, ablation), and 140k keeps a run within 45 min here.
+    # off from about 80k steps (docs/training.md, ablation), and 140k keeps a run within 45 min here.
     total_frames: int = _f(140_000, "environment steps to train for (SPEC: 0.2 M; ours level off by 0.14 M)")
     frames_per_batch: int = _f(64, "environment steps collected between update rounds")
     init_random_frames: int = _f(5_000, "steps with uniformly random actions before learning starts (rounded up "

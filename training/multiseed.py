@@ -8,7 +8,6 @@ interval per seed.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -79,7 +78,7 @@ def seeds_summary(run_dirs: list[Path], figure: Path | None = None) -> dict:
     if figure is not None:
         plot_curves([Path(d) for d in run_dirs], figure)
         out["figure"] = str(figure)
-    return json.loads(json.dumps(out))
+    return out
 
 
 __all__ = ["seed_runs", "seeds_summary", "train_seed", "train_seeds"]

@@ -27,7 +27,6 @@ from pathlib import Path
 import numpy as np
 
 import aircraft
-from jsbsim_env.controllers.integral_trim import IntegralTrim
 from jsbsim_env.controllers.pid import PIDAttitudeController
 from jsbsim_env.effectiveness import effectiveness, plot_effectiveness
 from jsbsim_env.missions import MissionResult, RouteConfig, fly_route
@@ -77,14 +76,12 @@ def _controllers(policy_path, integral_trim: float = 0.0) -> tuple[dict[str, Cal
     (with ``controllers.integral_trim`` at that fraction where > 0); and the policy file (None
     without one)."""
     makers: dict[str, Callable[[], object]] = {"PID": PIDAttitudeController}
-    from training.policy import PolicyFileError, PolicyRuntime, shipped_policy_path
+    from training.controllers import make_controller
+    from training.policy import PolicyFileError, shipped_policy_path
 
     path = Path(policy_path) if policy_path is not None else shipped_policy_path()
     if path.exists():
-        if integral_trim:
-            makers["RL"] = lambda: IntegralTrim(PolicyRuntime(path), integral_trim)
-        else:
-            makers["RL"] = lambda: PolicyRuntime(path)
+        makers["RL"] = lambda: make_controller("policy", path, integral_trim)
         return makers, path
     if policy_path is not None:
         raise PolicyFileError(f"policy file {path} does not exist")

@@ -93,22 +93,10 @@ class Job:
     count: int
 
 
-def make_controller(name: str, policy: str | None = None):
-    """``"policy"`` (``policy`` or the shipped one, ONNX) or ``"pid"``."""
-    if name == "pid":
-        from jsbsim_env.controllers.pid import PIDAttitudeController
-
-        return PIDAttitudeController()
-    if name == "policy":
-        from training.policy import PolicyRuntime
-
-        return PolicyRuntime(policy, backend="onnx")
-    raise ValueError(f"controller must be 'policy' or 'pid', got {name!r}")
-
-
 def run_job(job: Job, policy: str | None = None) -> list[dict]:
     """Fly a job's episodes; one row per episode (the table's schema: ``ROW_FIELDS``)."""
     from jsbsim_env.trim_table import TrimTable
+    from training.controllers import make_controller
     from training.suite import fly
 
     TrimTable.forget_shared()  # the job's numbers must not depend on what this process flew before

@@ -133,17 +133,17 @@ class EmulatedLine:
         delivered = self._fault(data)
         if delivered is None:
             return False
-        done = self._arrival(now, len(delivered), self._tx_busy_until)
-        self._tx_busy_until = done
-        self._out.append((done + self.faults.delay_ms / 1000.0 * self.emulate_timing, delivered))
-        self.pump(now)
+        self._queue(delivered, now, self.faults.delay_ms / 1000.0 * self.emulate_timing)
         return delivered is data
 
     def send_raw(self, data: bytes, now: float) -> None:
         """Queue bytes that no fault touches (heartbeats before the flight starts)."""
-        done = self._arrival(now, len(data), self._tx_busy_until)
-        self._tx_busy_until = done
-        self._out.append((done, data))
+        self._queue(data, now, 0.0)
+
+    def _queue(self, data: bytes, now: float, extra_delay_s: float) -> None:
+        """Bytes go out once their last bit would have crossed the wire, plus ``extra_delay_s``."""
+        done = self._tx_busy_until = self._arrival(now, len(data), self._tx_busy_until)
+        self._out.append((done + extra_delay_s, data))
         self.pump(now)
 
     def pump(self, now: float) -> None:

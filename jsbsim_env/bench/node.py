@@ -40,25 +40,6 @@ from jsbsim_env.bench.wire import (
 RESET_AFTER_GAP_S = 0.12
 
 
-def make_controller(name: str, policy: str | None = None, integral_trim: float = 0.0):
-    """``"policy"`` (the ONNX policy: the shipped one, or ``policy``; with integral trim at that
-    fraction where > 0) or ``"pid"``."""
-    if name == "policy":
-        from training.policy import PolicyRuntime
-
-        runtime = PolicyRuntime(policy, backend="onnx")
-        if integral_trim:
-            from jsbsim_env.controllers.integral_trim import IntegralTrim
-
-            return IntegralTrim(runtime, integral_trim)
-        return runtime
-    if name == "pid":
-        from jsbsim_env.controllers.pid import PIDAttitudeController
-
-        return PIDAttitudeController()
-    raise ValueError(f"controller must be 'policy' or 'pid', got {name!r}")
-
-
 def percentiles_ms(seconds: list[float]) -> dict[str, float | None]:
     """p50, p99 and max of durations given in seconds, in ms (None where there are none)."""
     if not seconds:
@@ -192,6 +173,8 @@ def main(argv: list[str] | None = None) -> int:
     except (serial.SerialException, OSError) as exc:
         print(f"cannot open serial device {args.device}: {exc}", file=sys.stderr)
         return 2
+    from training.controllers import make_controller
+
     node = ControllerNode(port, make_controller(args.controller, args.policy, args.integral_trim), args.rate_hz,
                           Faults.parse(args.faults))
 

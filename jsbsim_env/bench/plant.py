@@ -270,7 +270,7 @@ class Plant:
             tick = start + k * self.frame_s
             time_us = round(k * self.frame_s * 1e6)
             line.flight_time_s = flight_time = k * self.frame_s
-            nav = flight.core.navigation()
+            nav = flight.navigation  # as the step's demands were computed from
             burst = encode_state(self.link, time_us, measurement, setpoint, nav.heading_rad,
                                  math.hypot(nav.v_north_mps, nav.v_east_mps), -nav.v_down_mps)
             if k % round(cfg.rate_hz) == 0:
@@ -316,7 +316,7 @@ class Plant:
             elif source == HOLD:
                 command = last_network
             else:
-                if failsafe.events and failsafe.events[-1] == {"time_s": flight_time, "event": "pid_takeover"}:
+                if k == 0 or log["source"][k - 1] != PID:
                     pid.reset()  # from its trim: the integrators of a controller that was not flying mean nothing
                 command = pid.update(self.frame_s, measurement, setpoint)
             log["time_s"][k], log["fresh"][k], log["source"][k] = flight_time, fresh, source
@@ -341,7 +341,7 @@ class Plant:
         metrics = mission.metrics() if n else {}
         summary = {
             "mode": cfg.mode, "controller": cfg.controller, "baud": cfg.baud, "rate_hz": cfg.rate_hz,
-            "device": cfg.device or "pty", "faults": {k: v for k, v in asdict(cfg.faults).items()},
+            "device": cfg.device or "pty", "faults": asdict(cfg.faults),
             "seed": cfg.seed, "duration_s": cfg.duration_s, "wall_s": wall_s,
             "frames": n,
             "missed_deadlines": int(n - frames["fresh"].sum()),
