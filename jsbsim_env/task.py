@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from jsbsim_env.controllers.integral_trim import TrimIntegrator
 from jsbsim_env.core import N_STATE, SCALED_TERMS, CoreConfig, FlightCore, envelope_code, termination_reason
 
 GOAL_NAMES = ("roll_cmd_rad", "pitch_cmd_rad", "airspeed_eas_cmd_mps")
@@ -52,6 +53,12 @@ INTEGRAL_COLUMNS = (1, 2, 6, 8)
 # reads gain x e; the weight column (1 - d) sum_k d^k rises from 1 - d to 1 after a reset.
 INTEGRAL_GAIN = 10.0
 INTEGRAL_SIZE = len(INTEGRAL_COLUMNS) + 1
+
+# Integral trim (``TaskConfig.integral_trim`` > 0), beyond the paper: the aileron and elevator
+# trims of ``controllers.integral_trim.TrimIntegrator``, added to the policy's commands and shown
+# to it (scaled as the surfaces) after the last action, before any error integrals and the goals.
+TRIM_SIZE = 2
+TRIM_SCALE_DEG = 30.0
 
 # The critics' state (``AttitudeTaskBatch.critic_states``), beyond the paper: what makes the task
 # Markov for a critic without memory, known in simulation only. The true state (scaled as the
@@ -111,23 +118,24 @@ ACHIEVED_INDEX = (1, 2, 6, 8)
 PENALTY_SATURATION = (math.radians(1.5), math.radians(1.8), 1.5)
 
 
-def reward_terms(state, goal) -> list[float]:
+def reward_terms(state, goal, sideslip_weight: float = 1.0) -> list[float]:
     """SPEC Eq. 22 for one true state (``core.STATE_NAMES`` order) and goal: the four penalties
-    (``REWARD_TERMS``, errors in degrees and m/s) and then the reward, 1 minus their sum."""
+    (``REWARD_TERMS``, errors in degrees and m/s) and then the reward, 1 minus their sum;
+    ``sideslip_weight`` scales the sideslip penalty and its cap (``TaskConfig``)."""
     p_roll = min(abs(state[1] - goal[0]) * _DEG / 5.0, 0.3)
     p_pitch = min(abs(state[2] - goal[1]) * _DEG / 6.0, 0.3)
     p_speed = min(abs(state[6] - goal[2]) / 5.0, 0.3)
-    p_beta = min(abs(state[8]) * _DEG / 30.0, 0.1)
+    p_beta = sideslip_weight * min(abs(state[8]) * _DEG / 30.0, 0.1)
     return [p_roll, p_pitch, p_speed, p_beta, 1.0 - (p_roll + p_pitch + p_speed + p_beta)]
 
 
-def reward_from_achieved(achieved, goal):
+def reward_from_achieved(achieved, goal, sideslip_weight: float = 1.0):
     """SPEC Eq. 22 on arrays (numpy or torch): ``achieved`` (..., 4) in ``ACHIEVED_INDEX`` order and
     ``goal`` (..., 3) -> reward (...). The vectorised twin of ``reward_terms``."""
     p_roll = (abs(achieved[..., 0] - goal[..., 0]) * (_DEG / 5.0)).clip(max=0.3)
     p_pitch = (abs(achieved[..., 1] - goal[..., 1]) * (_DEG / 6.0)).clip(max=0.3)
     p_speed = (abs(achieved[..., 2] - goal[..., 2]) / 5.0).clip(max=0.3)
-    p_beta = (abs(achieved[..., 3]) * (_DEG / 30.0)).clip(max=0.1)
+    p_beta = sideslip_weight * (abs(achieved[..., 3]) * (_DEG / 30.0)).clip(max=0.1)
     return 1.0 - (p_roll + p_pitch + p_speed + p_beta)
 
 
@@ -137,28 +145,42 @@ class TaskConfig:
 
     ``error_integral_decay`` d > 0 adds the error integrals (``ErrorIntegrals``) to the
     observation, before the goals; 0 keeps the 20 values of the table above.
+    ``integral_trim`` f > 0 adds integral trim at f times the PID's integral gains to the policy's
+    aileron and elevator commands and shows the two trims in the observation (``TRIM_SIZE``).
+    ``sideslip_weight`` multiplies Eq. 22's sideslip penalty and its cap (1: the paper's reward).
     """
 
     core: CoreConfig = field(default_factory=CoreConfig)
     goal_hold_s: tuple[float, float] = (3.0, 10.0)  # each channel holds its goal this long, drawn uniformly
     error_integral_decay: float = 0.0  # per control step; 0.99 forgets with a time constant of 100 steps
+    integral_trim: float = 0.0  # fraction of the PID's integral gains; 0: none, as the paper
+    sideslip_weight: float = 1.0
 
     def __post_init__(self):
         if not 0.0 <= self.error_integral_decay < 1.0:
             raise ValueError(f"error_integral_decay must lie in [0, 1), got {self.error_integral_decay}")
+        if not 0.0 <= self.integral_trim <= 2.0:
+            raise ValueError(f"integral_trim must lie in [0, 2], got {self.integral_trim}")
+        if not 0.0 <= self.sideslip_weight <= 10.0:
+            raise ValueError(f"sideslip_weight must lie in [0, 10], got {self.sideslip_weight}")
 
     @property
     def observation_size(self) -> int:
-        return observation_size(self.error_integral_decay)
+        return observation_size(self.error_integral_decay, self.integral_trim)
 
     @property
     def critic_state_size(self) -> int:
-        return CRITIC_STATE_BASE + (INTEGRAL_SIZE if self.error_integral_decay > 0.0 else 0)
+        return CRITIC_STATE_BASE + self.observation_size - OBS_SIZE
 
 
-def observation_size(error_integral_decay: float) -> int:
-    """Values in one observation: 20, and 5 more with error integrals."""
-    return OBS_SIZE + (INTEGRAL_SIZE if error_integral_decay > 0.0 else 0)
+def observation_size(error_integral_decay: float, integral_trim: float = 0.0) -> int:
+    """Values in one observation: 20, 5 more with error integrals, 2 more with integral trim."""
+    return OBS_SIZE + (INTEGRAL_SIZE if error_integral_decay > 0.0 else 0) + (TRIM_SIZE if integral_trim > 0.0 else 0)
+
+
+def insert_trims(scaled: list[float], trim_deg: list[float]) -> list[float]:
+    """A scaled observation of the 20-value layout with the integral trims inserted before the goals."""
+    return scaled[:-3] + [t / TRIM_SCALE_DEG for t in trim_deg] + scaled[-3:]
 
 
 class ErrorIntegrals:
@@ -221,6 +243,9 @@ class AttitudeTaskBatch:
         self._obs_inv_scale = (1.0 / OBS_SCALE).tolist()
         decay = self.config.error_integral_decay
         self._integrals = [ErrorIntegrals(decay) for _ in range(n)] if decay > 0.0 else None
+        trim = self.config.integral_trim
+        self._trims = [TrimIntegrator(trim) for _ in range(n)] if trim > 0.0 else None
+        self._sideslip_weight = self.config.sideslip_weight
         self._obs_lists: list[list[float]] = [[0.0] * self.config.observation_size for _ in range(n)]
         self._recent_actions: list[list[float]] = [[0.0] * (RECENT_ACTIONS * ACTION_SIZE) for _ in range(n)]
 
@@ -244,6 +269,8 @@ class AttitudeTaskBatch:
         self.steps[i] = 0
         if self._integrals is not None:
             self._integrals[i].reset()
+        if self._trims is not None:
+            self._trims[i].reset()
         return np.array(self._observation(i), dtype=np.float32)
 
     # ------------------------------------------------------------------ stepping
@@ -270,10 +297,13 @@ class AttitudeTaskBatch:
         for i, (core, a) in enumerate(zip(self.cores, rows)):
             a = self.last_actions[i] = [min(max(x, -1.0), 1.0) for x in a]
             self._recent_actions[i] = a + self._recent_actions[i][:-ACTION_SIZE]
-            core.fly([o + k * x for x, k, o in zip(a, self._act_scale, self._act_offset)])
+            command = [o + k * x for x, k, o in zip(a, self._act_scale, self._act_offset)]
+            if self._trims is not None:
+                command = self._trims[i].apply(command)
+            core.fly(command)
             self.states[i] = state = core.last_true_state = core.true_state()
             code = codes[i] = envelope_code(state, core.height_above_ground_m(), envelope)
-            t = reward_terms(state, self._goal_lists[i])
+            t = reward_terms(state, self._goal_lists[i], self._sideslip_weight)
             if code and not math.isfinite(t[4]):
                 t = [0.0] * 5
             terms.append(t)
@@ -282,6 +312,11 @@ class AttitudeTaskBatch:
             time_s = core.step_index * core.setup.control_interval_s
             if time_s >= self._next_goal_change_min_s[i]:
                 self._update_goals(i, time_s)
+            if self._trims is not None and not code:
+                # The error against the goal now held, measured as the policy sees it, trims the
+                # next command (as ``PolicyRuntime`` does in flight).
+                measured = [x + e for x, e in zip(state, self.noise[i])]
+                self._trims[i].integrate(core.setup.control_interval_s, measured, self._goal_lists[i])
             obs.append(self._observation(i))
         codes_a = np.array(codes)
         terminated = codes_a > 0
@@ -315,6 +350,8 @@ class AttitudeTaskBatch:
         raw = self.states[i] + self.last_actions[i] + self._goal_lists[i]
         noise = self.noise[i] + _NO_EXTRA_NOISE
         obs = [(x + n - o) * k for x, n, o, k in zip(raw, noise, self._obs_offset, self._obs_inv_scale)]
+        if self._trims is not None:
+            obs = insert_trims(obs, self._trims[i].trim_deg)
         if self._integrals is not None:
             obs = self._integrals[i].extend(obs)
         self._obs_lists[i] = obs
@@ -327,7 +364,7 @@ class AttitudeTaskBatch:
         offset, inv_scale = self._obs_offset, self._obs_inv_scale
         for i, core in enumerate(self.cores):
             true = [(x - o) * k for x, o, k in zip(self.states[i], offset, inv_scale)]
-            tail = self._obs_lists[i][OBS_SIZE - 3:]  # the error integrals where configured, and the goals
+            tail = self._obs_lists[i][OBS_SIZE - 3:]  # the trims and error integrals where configured, the goals
             rows.append(true + self._recent_actions[i] + core.episode_conditions() + tail)
         return np.nan_to_num(np.array(rows, dtype=np.float32))
 

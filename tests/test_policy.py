@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import torch
 
-from jsbsim_env.task import OBS_SIZE, AttitudeTask, TaskConfig, action_to_command
+from jsbsim_env.task import OBS_SIZE, TRIM_SCALE_DEG, AttitudeTask, TaskConfig, action_to_command
 from training.checkpoint import atomic_save, checked_load
 from training.config import TrainConfig
 from training.policy import PolicyFileError, PolicyRuntime, export_onnx, load_policy
@@ -140,24 +140,32 @@ def test_ship_policy_needs_the_runs_first_command_and_commit(policy_file, tmp_pa
     assert [p.stat().st_mtime_ns for p in sorted(Path(script).parents[1].glob("training/shipped/*"))] == shipped
 
 
-@pytest.mark.parametrize("decay", [0.0, 0.99])
-def test_runtime_builds_the_environments_observation(policy_file, tmp_path, decay):
-    """Flying from measurements (with its own last action, and error integrals where the policy has
-    them) gives the same actions as flying from the environment's observations."""
+@pytest.mark.parametrize(("decay", "trim"), [(0.0, 0.0), (0.99, 0.0), (0.0, 0.5), (0.99, 0.5)])
+def test_runtime_builds_the_environments_observation(policy_file, tmp_path, decay, trim):
+    """Flying from measurements (with its own last action, and error integrals and integral trim
+    where the policy has them) gives the same commands as flying from the environment's observations."""
     path, _ = policy_file
-    if decay > 0.0:
+    if decay > 0.0 or trim > 0.0:
         c = TrainConfig(seed=2)
         c.env.num_envs, c.buffer.capacity, c.log.progress = 1, 10, False
-        c.env.error_integral_decay = decay
+        c.env.error_integral_decay, c.env.integral_trim = decay, trim
         path = tmp_path / "policy.pt"
         Trainer(c, tmp_path / "run").save_policy(path, {"return_norm": 0.0})
     from_env, from_measurement = PolicyRuntime(path, backend="torch"), PolicyRuntime(path, backend="torch")
-    task = AttitudeTask(TaskConfig(error_integral_decay=decay))
+    task = AttitudeTask(TaskConfig(error_integral_decay=decay, integral_trim=trim))
     assert from_env.observation_size == task.config.observation_size
     obs, _ = task.reset(4)
-    for _ in range(20):
-        a_env = from_env.act_scaled(obs)
-        command = from_measurement.act(task.batch.measurements()[0], task.batch.goals[0])
-        np.testing.assert_allclose(action_to_command(np.clip(a_env.astype(np.float64), -1, 1)), command, atol=1e-5)
-        obs, _, terminated, truncated, _ = task.step(np.clip(a_env.astype(np.float64), -1, 1))
+    trims_seen = []
+    for _ in range(40):
+        a_env = np.clip(from_env.act_scaled(obs).astype(np.float64), -1, 1)
+        command_env = action_to_command(a_env)
+        if trim > 0.0:  # the environment adds the trims it shows in the observation
+            trims_seen.append(obs[OBS_SIZE - 3:OBS_SIZE - 1] * TRIM_SCALE_DEG)
+            command_env[:2] += trims_seen[-1]
+        dt_s = task.core.setup.control_interval_s
+        command = from_measurement.act(task.batch.measurements()[0], task.batch.goals[0], dt_s)
+        np.testing.assert_allclose(command_env, command, atol=1e-4)
+        obs, _, terminated, truncated, _ = task.step(a_env)
         assert not (terminated or truncated)
+    if trim > 0.0:
+        assert np.abs(trims_seen[-1]).max() > 0.01  # the trims moved

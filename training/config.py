@@ -30,6 +30,11 @@ class EnvSettings:
     disturbances: bool = _f(True, "delay, noise, random interval, randomisation and turbulence (SPEC training setting)")
     error_integral_decay: float = _f(0.0, "per-step decay of the error integrals added to the observation "
                                           "(jsbsim_env.task.ErrorIntegrals; 0: none, as the paper)")
+    integral_trim: float = _f(0.0, "integral trim on aileron and elevator at this fraction of the PID's integral "
+                                   "gains, learned beside and observed by the policy (jsbsim_env.controllers."
+                                   "integral_trim; 0: none, as the paper)")
+    sideslip_weight: float = _f(1.0, "training reward's sideslip penalty and its cap times this (1: SPEC Eq. 22); "
+                                     "evaluations keep Eq. 22")
 
 
 @dataclass
@@ -112,7 +117,7 @@ class TrainConfig:
     def preset(cls, name: str) -> TrainConfig:
         """A named starting configuration: ``"default"`` (this package's) or ``"paper"`` (SPEC
         section 3 as far as this environment allows: a fixed temperature of 0.2, one gradient step
-        per environment step, no goal relabelling, no error integrals; the observation keeps the
+        per environment step, no goal relabelling, no error integrals or integral trim, Eq. 22's reward; the observation keeps the
         last action, without which nothing learned, README)."""
         config = cls()
         if name == "paper":
@@ -121,6 +126,8 @@ class TrainConfig:
             config.optim.updates_per_step = 1.0
             config.buffer.relabel_fraction = 0.0
             config.env.error_integral_decay = 0.0
+            config.env.integral_trim = 0.0
+            config.env.sideslip_weight = 1.0
         elif name != "default":
             raise ValueError(f"unknown preset {name!r}: use one of {PRESETS}")
         return config

@@ -19,10 +19,13 @@ import numpy as np
 import torch
 from torch import nn
 
+from jsbsim_env.controllers.integral_trim import TrimIntegrator
+from jsbsim_env.core import COMMAND_HIGH, COMMAND_LOW
 from jsbsim_env.task import (
     ErrorIntegrals,
     action_to_command,
     initial_last_action,
+    insert_trims,
     observation_size,
     scale_observation,
 )
@@ -56,7 +59,8 @@ class DeterministicActor(nn.Module):
 
 def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
     """The deterministic actor and the metadata saved with it (``Trainer.save_policy``); the metadata's
-    ``error_integral_decay`` (0 for files from before the error integrals) sets the observation layout."""
+    ``error_integral_decay`` and ``integral_trim`` (0 for files from before them) set the observation
+    layout."""
     path = Path(path)
     if not path.is_file():
         raise PolicyFileError(f"no policy file at {path}")
@@ -66,7 +70,8 @@ def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
         if bad:
             raise PolicyFileError(f"{path} holds NaN or infinite weights ({', '.join(bad[:3])}); it cannot fly")
         decay = float(data.get("error_integral_decay", 0.0))
-        expected = observation_size(decay)
+        trim = float(data.get("integral_trim", 0.0))
+        expected = observation_size(decay, trim)
         prefix = "module.0.module."
         state = {k[len(prefix):]: v for k, v in data["actor"].items() if k.startswith(prefix)}
         inputs = state["encoder.lstm.weight_ih_l0"].shape[1]
@@ -82,7 +87,7 @@ def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
         raise PolicyFileError(f"{path} is not a usable policy file: {err}") from err
     actor = DeterministicActor(net).eval()
     meta = {k: v for k, v in data.items() if k != "actor"}
-    meta["error_integral_decay"] = decay
+    meta["error_integral_decay"], meta["integral_trim"] = decay, trim
     return actor, meta
 
 
@@ -149,9 +154,10 @@ class PolicyRuntime:
         self.actor, self.meta = load_policy(path)
         self.window = int(self.meta.get("window", 8))
         self.backend = backend
-        decay = self.meta["error_integral_decay"]
-        self.observation_size = observation_size(decay)
+        decay, trim = self.meta["error_integral_decay"], self.meta["integral_trim"]
+        self.observation_size = observation_size(decay, trim)
         self._integrals = ErrorIntegrals(decay) if decay > 0.0 else None
+        self._trim = TrimIntegrator(trim) if trim > 0.0 else None
         # The window, oldest row first, shifted in place each step; empty until the episode's first push.
         self._window = np.zeros((self.window, self.observation_size), dtype=np.float32)
         self._filled = False
@@ -181,11 +187,13 @@ class PolicyRuntime:
         return export_onnx(self.actor, Path(self._export_dir.name) / onnx_path.name, self.window, digest)
 
     def reset(self) -> None:
-        """Forget the window, the last action and the error integrals (a new episode)."""
+        """Forget the window, the last action, the error integrals and the trims (a new episode)."""
         self._filled = False
         self._last_action: np.ndarray | None = None
         if self._integrals is not None:
             self._integrals.reset()
+        if self._trim is not None:
+            self._trim.reset()
 
     def push(self, observation: np.ndarray) -> np.ndarray:
         """Add one scaled observation; returns the window (window, observation size), oldest first."""
@@ -209,26 +217,39 @@ class PolicyRuntime:
         with torch.no_grad():
             return self.actor(torch.from_numpy(x))[0].numpy()
 
-    def act(self, measurement: np.ndarray, goal: np.ndarray) -> np.ndarray:
+    def act(self, measurement: np.ndarray, goal: np.ndarray, dt_s: float | None = None) -> np.ndarray:
         """Actuator command (aileron, elevator, rudder in deg, throttle) for a measured state
-        (``core.STATE_NAMES``) and goal (roll, pitch in rad, EAS in m/s)."""
-        if self._last_action is None:
+        (``core.STATE_NAMES``) and goal (roll, pitch in rad, EAS in m/s); ``dt_s``, the control
+        interval, is needed by a policy trained with integral trim."""
+        measurement = np.asarray(measurement)
+        first = self._last_action is None
+        if first:
             self._last_action = initial_last_action(measurement)
-        obs = scale_observation(np.asarray(measurement), self._last_action, np.asarray(goal))
+        obs = scale_observation(measurement, self._last_action, np.asarray(goal))
+        if self._trim is not None:
+            if dt_s is None:
+                raise ValueError("this policy was trained with integral trim: give act() the control interval dt_s")
+            if not first:  # as in training: the integrators start from zero with the episode
+                self._trim.integrate(dt_s, measurement, goal)
+            obs = insert_trims(obs.tolist(), self._trim.trim_deg)
         if self._integrals is not None:
-            obs = np.asarray(self._integrals.extend(obs.tolist()), dtype=np.float32)
+            obs = self._integrals.extend(obs if isinstance(obs, list) else obs.tolist())
+        obs = np.asarray(obs, dtype=np.float32)
         # ufuncs directly: np.clip's wrapper alone costs about 10 us a call
         self._last_action = np.minimum(np.maximum(self.action(self._push(obs)).astype(np.float64), -1.0), 1.0)
-        return action_to_command(self._last_action)
+        command = action_to_command(self._last_action)
+        if self._trim is not None:
+            command = np.minimum(np.maximum(self._trim.apply(command.tolist()), COMMAND_LOW), COMMAND_HIGH)
+        return command
 
     def update(self, dt_s: float, measurement: np.ndarray, setpoint: np.ndarray) -> np.ndarray:
-        """``act`` under the shared attitude-controller interface (``jsbsim_env.controllers.base``);
-        the policy reads its observation window and ignores ``dt_s``."""
-        return self.act(measurement, setpoint)
+        """``act`` under the shared attitude-controller interface (``jsbsim_env.controllers.base``)."""
+        return self.act(measurement, setpoint, dt_s)
 
     def act_scaled(self, observation: np.ndarray) -> np.ndarray:
-        """Action in [-1, 1]^4 for an already scaled observation (as the environments give, error
-        integrals included where the policy has them)."""
+        """Action in [-1, 1]^4 for an already scaled observation (as the environments give, trims
+        and error integrals included where the policy has them; the environment adds the trims to
+        the command)."""
         return self.action(self._push(self._as_frame(observation)))
 
     def _as_frame(self, observation: np.ndarray) -> np.ndarray:

@@ -13,7 +13,9 @@ For a relabelled sample the goal columns of every frame of both observation wind
 replaced by the new goal (held over the window), and the reward is recomputed from the
 transition's ``achieved`` state (``task.reward_from_achieved``). Where the observation carries
 error integrals (``task.ErrorIntegrals``), they are moved to the new goal too, exactly: an
-integral is S - g W with S and W independent of the goal, so it changes by (g - g') W. Terminated
+integral is S - g W with S and W independent of the goal, so it changes by (g - g') W. Integral trims
+(``task.TRIM_SIZE``) are left as they are: they are part of the aircraft's state, though under the
+new goal they would have been integrated differently (a small bias, slow as the trims are). Terminated
 transitions keep their goal: their reward is the episode's last and their state may not be finite.
 """
 
@@ -47,7 +49,7 @@ _GOAL_KEYS = ("observation", ("next", "observation"), "state", ("next", "state")
 
 
 def relabel_goals(batch: TensorDictBase, fraction: float, spread: float, generator: torch.Generator | None = None,
-                  error_integrals: bool = False) -> TensorDictBase:
+                  error_integrals: bool = False, sideslip_weight: float = 1.0) -> TensorDictBase:
     """A copy of ``batch`` with goals and rewards of a random ``fraction`` of its samples relabelled.
 
     Args:
@@ -60,6 +62,7 @@ def relabel_goals(batch: TensorDictBase, fraction: float, spread: float, generat
             each channel's saturation error, clipped to the goal ranges.
         generator: random stream for the choice and the offsets.
         error_integrals: the observations (and states) carry error integrals to move as well.
+        sideslip_weight: the training reward's (``task.TaskConfig``).
     """
     if not 0.0 <= fraction <= 1.0:
         raise ValueError(f"relabel fraction must lie in [0, 1], got {fraction}")
@@ -89,5 +92,5 @@ def relabel_goals(batch: TensorDictBase, fraction: float, spread: float, generat
             shift = (rows[..., _GOAL_COLUMNS] - new_goal) * rows[..., _WEIGHT_COLUMN, None]
             values[index, ..., _INTEGRAL_COLUMNS] = rows[..., _INTEGRAL_COLUMNS] + INTEGRAL_GAIN * shift
         values[index, ..., _GOAL_COLUMNS] = new_goal
-    out["next", "reward"][index] = reward_from_achieved(achieved, goal).unsqueeze(-1).to(out["next", "reward"].dtype)
+    out["next", "reward"][index] = reward_from_achieved(achieved, goal, sideslip_weight).unsqueeze(-1).to(out["next", "reward"].dtype)
     return out

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import dataclasses
 import math
 import signal
 import threading
@@ -90,7 +91,8 @@ class Trainer:
         torch.manual_seed(c.seed)
         self.device = torch.device(c.device)
         core = CoreConfig() if c.env.disturbances else CoreConfig.ideal()
-        self.task_config = TaskConfig(core=core, error_integral_decay=c.env.error_integral_decay)
+        self.task_config = TaskConfig(core=core, error_integral_decay=c.env.error_integral_decay,
+                                      integral_trim=c.env.integral_trim, sideslip_weight=c.env.sideslip_weight)
         self.env = make_env(c.env.num_envs, self.task_config, seed=c.seed, window=c.env.window,
                             critic_state=c.network.critic == "state")
         obs_size = self.task_config.observation_size
@@ -179,6 +181,7 @@ class Trainer:
             "network": self.config.network.__dict__,
             "window": self.config.env.window,
             "error_integral_decay": self.config.env.error_integral_decay,
+            "integral_trim": self.config.env.integral_trim,
             "frames": self.counters.frames,
             "seed": self.config.seed,
             "evaluation": evaluation,
@@ -188,7 +191,8 @@ class Trainer:
     def _update(self, batch: TensorDictBase) -> None:
         c = self.config
         batch = relabel_goals(batch.to(self.device), c.buffer.relabel_fraction, c.buffer.relabel_spread,
-                              error_integrals=c.env.error_integral_decay > 0.0)
+                              error_integrals=c.env.error_integral_decay > 0.0,
+                              sideslip_weight=c.env.sideslip_weight)
         for key, value in self.sac.update(batch).items():
             self._losses.setdefault(key, []).append(value)
         self.counters.updates += 1
@@ -366,10 +370,11 @@ def evaluate_policy(policy, task_config: TaskConfig, episodes: int = 8, max_step
     """The evaluation a run makes every ``log.eval_every_frames`` (its best policy is kept by it):
     fly ``episodes`` episodes side by side with the deterministic policy, each once.
 
-    Returns the mean normalised return (episode reward / max_steps, SPEC Fig. 8), the mean episode
-    length and the number of episodes that ended early (terminated, not truncated).
+    Returns the mean normalised return (episode reward / max_steps, SPEC Fig. 8; always with Eq. 22's
+    reward, whatever sideslip weight the run trains with), the mean episode length and the number
+    of episodes that ended early (terminated, not truncated).
     """
-    env = make_env(episodes, task_config, seed=seed, window=window)
+    env = make_env(episodes, dataclasses.replace(task_config, sideslip_weight=1.0), seed=seed, window=window)
     td = env.reset()
     active = torch.ones(episodes, dtype=torch.bool)
     total = torch.zeros(episodes)

@@ -1,18 +1,22 @@
-"""Integral trim: slow integrators of the roll and pitch errors added to any attitude controller's
+"""Integral trim: slow integrators of the roll and pitch errors added to an attitude controller's
 aileron and elevator commands.
 
 A learned policy without integral action keeps a steady error wherever its implicit trim differs
-from the aircraft's (measured on the shipped policy in calm air: about 0.5 deg of roll and 1 deg
-of pitch at every altitude). The integrators here remove it the way the PID's do: the PID's
-gain-scheduled integral gains (``pid_gains.json``), times ``fraction``, scaled by dynamic pressure,
-with the same anti-windup (no integration while the command is saturated that way) and bounds.
-The throttle is left alone (TECS's on a route, the controller's otherwise), and so is the rudder:
-a sideslip integrator tried beside them doubled the sideslip RMSE in turbulence.
+from the aircraft's (measured on a policy trained without it, in calm air: about 0.5 deg of roll
+and 1 deg of pitch at every altitude). The integrators here remove it the way the PID's do: the
+PID's gain-scheduled integral gains (``pid_gains.json``), times ``fraction``, scaled by dynamic
+pressure, with the same anti-windup (no integration while the command is saturated that way) and
+bounds. The throttle is left alone (TECS's on a route, the controller's otherwise), and so is the
+rudder: a sideslip integrator tried beside them doubled the sideslip RMSE in turbulence.
 
 | loop | added command |
 |---|---|
 | roll | aileron += integral of fraction q_s k_roll_i (roll - roll_cmd) |
 | pitch | elevator += integral of fraction q_s k_pitch_i (pitch - pitch_cmd) |
+
+Two ways to use them: ``IntegralTrim`` wraps any controller after the fact; a policy trained with
+``TaskConfig.integral_trim`` learns beside them and observes their values (``jsbsim_env.task``,
+``training.policy.PolicyRuntime``), both through ``TrimIntegrator``.
 """
 
 from __future__ import annotations
@@ -28,36 +32,78 @@ from jsbsim_env.controllers.pid import (
 )
 from jsbsim_env.core import COMMAND_HIGH, COMMAND_LOW
 
+_SURFACE_LOW, _SURFACE_HIGH = COMMAND_LOW[:2].tolist(), COMMAND_HIGH[:2].tolist()
 
-class IntegralTrim:
-    """``controller`` with integral trim on roll and pitch (module docstring); shares the
-    ``AttitudeController`` interface."""
 
-    def __init__(self, controller: AttitudeController, fraction: float = 0.5, schedule: GainSchedule | None = None):
+class TrimIntegrator:
+    """The aileron and elevator trims (deg) of one aircraft, on plain floats (the batched task
+    keeps one per aircraft and calls it every control step)."""
+
+    def __init__(self, fraction: float, schedule: GainSchedule | None = None):
         if not 0.0 < fraction <= 2.0:
             raise ValueError(f"integral trim fraction must lie in (0, 2], got {fraction}")
-        self.controller, self.fraction = controller, float(fraction)
-        self.schedule = schedule or GainSchedule()
+        self.fraction = float(fraction)
+        schedule = schedule or GainSchedule()
+        names = list(schedule.at(schedule.altitudes_m[0]).__dataclass_fields__)
+        self._altitudes_m = schedule.altitudes_m
+        self._k_roll_i = schedule.values[:, names.index("k_roll_i")]
+        self._k_pitch_i = schedule.values[:, names.index("k_pitch_i")]
+        self.reset()
+
+    def reset(self) -> None:
+        self.trim_deg = [0.0, 0.0]
+        self._held = [0.0, 0.0]  # > 0: the last command was clipped at its upper limit, < 0 at its lower
+
+    def integrate(self, dt_s: float, measurement, goal) -> list[float]:
+        """One control interval of integration on a measured state (``core.STATE_NAMES``) and goal
+        (roll, pitch in rad, ...); returns the trims (deg)."""
+        altitude, eas = float(measurement[0]), float(measurement[6])
+        q_s = (DESIGN_EAS_MPS / max(eas, MIN_EAS_FOR_SCALING_MPS)) ** 2
+        k = self.fraction * q_s * dt_s
+        increments = (k * float(np.interp(altitude, self._altitudes_m, self._k_roll_i)) * (measurement[1] - goal[0]),
+                      k * float(np.interp(altitude, self._altitudes_m, self._k_pitch_i)) * (measurement[2] - goal[1]))
+        lim = SURFACE_INTEGRATOR_LIMIT_DEG
+        for j, inc in enumerate(increments):
+            if inc * self._held[j] > 0.0:
+                continue  # anti-windup: the surface is already saturated that way
+            self.trim_deg[j] = min(max(self.trim_deg[j] + inc, -lim), lim)
+        return self.trim_deg
+
+    def apply(self, command) -> list[float]:
+        """``command`` (aileron, elevator, rudder in deg, throttle) with the trims added and the
+        surfaces clipped to their travel; remembers which way a surface saturated."""
+        out = list(command)
+        for j in range(2):
+            wanted = out[j] + self.trim_deg[j]
+            out[j] = min(max(wanted, _SURFACE_LOW[j]), _SURFACE_HIGH[j])
+            self._held[j] = wanted - out[j]
+        return out
+
+
+class IntegralTrim:
+    """``controller`` with integral trim on roll and pitch (module docstring) added after the fact;
+    shares the ``AttitudeController`` interface."""
+
+    def __init__(self, controller: AttitudeController, fraction: float = 0.5, schedule: GainSchedule | None = None):
+        self.controller = controller
+        self.integrator = TrimIntegrator(fraction, schedule)
+        self.fraction = self.integrator.fraction
         self.reset()
 
     def reset(self) -> None:
         self.controller.reset()
-        self.trim_deg = np.zeros(2)  # added aileron, elevator
+        self.integrator.reset()
+
+    @property
+    def trim_deg(self) -> np.ndarray:
+        return np.array(self.integrator.trim_deg)
 
     def update(self, dt_s: float, measurement, setpoint) -> np.ndarray:
         m, sp = np.asarray(measurement, dtype=float), np.asarray(setpoint, dtype=float)
-        command = np.array(self.controller.update(dt_s, m, sp), dtype=float)
-        command[:2] += self.trim_deg
-        clipped = np.clip(command, COMMAND_LOW, COMMAND_HIGH)
-        g = self.schedule.at(m[0])
-        q_s = (DESIGN_EAS_MPS / max(m[6], MIN_EAS_FOR_SCALING_MPS)) ** 2
-        increments = self.fraction * q_s * dt_s * np.array([g.k_roll_i * (m[1] - sp[0]), g.k_pitch_i * (m[2] - sp[1])])
-        for k, inc in enumerate(increments):
-            if (command[k] > clipped[k] and inc > 0.0) or (command[k] < clipped[k] and inc < 0.0):
-                continue  # anti-windup: the surface is already saturated that way
-            self.trim_deg[k] = min(max(self.trim_deg[k] + inc, -SURFACE_INTEGRATOR_LIMIT_DEG),
-                                   SURFACE_INTEGRATOR_LIMIT_DEG)
-        return clipped
+        command = self.integrator.apply(self.controller.update(dt_s, m, sp).tolist())
+        # Integrated after the command, as the PID does: this step's error trims the next command.
+        self.integrator.integrate(dt_s, m, sp)
+        return np.clip(command, COMMAND_LOW, COMMAND_HIGH)
 
 
-__all__ = ["IntegralTrim"]
+__all__ = ["IntegralTrim", "TrimIntegrator"]
