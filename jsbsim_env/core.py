@@ -89,6 +89,7 @@ class CoreConfig:
     # rates at the clip 15-36 % of the time.
     turbulence_clip: str = "4sigma"
     backlash_deg: float = 0.0
+    servo_rate_limit_degps: float = 100.0  # every surface servo (SPEC section 1)
     noise_scale: float = 1.0  # multiplies every SPEC Table 3 sigma (robustness sweeps)
     parameter_strength: float = 1.0  # multiplies each Table 4 draw's distance from 1 (0: nominal aircraft)
     altitude_range_m: tuple[float, float] = (500.0, 20000.0)
@@ -109,6 +110,8 @@ class CoreConfig:
                              f"{sorted(turb.SEVERITIES)}")
         if self.turbulence_clip not in turb.CLIPS:
             raise ValueError(f"turbulence_clip {self.turbulence_clip!r}: use one of {turb.CLIPS}")
+        if not self.servo_rate_limit_degps > 0.0:  # NaN fails too
+            raise ValueError(f"servo_rate_limit_degps must be positive, got {self.servo_rate_limit_degps}")
 
     @classmethod
     def ideal(cls, **overrides) -> CoreConfig:
@@ -238,6 +241,7 @@ class FlightCore:
         for term in SCALED_TERMS:
             f[f"aero/scale/{term}"] = scales.get(term, 1.0)
         f["fcs/backlash-width-deg"] = cfg.backlash_deg
+        f["fcs/surface-rate-limit-deg_s"] = cfg.servo_rate_limit_degps
         for s in self._set_gust + self._set_gust_rate:
             s(0.0)
         # The nominal aircraft's trim, interpolated; with scaled coefficients the start is then

@@ -126,6 +126,15 @@ def test_surface_large_step_is_rate_limited(sim):
     assert 0.17 <= t_90 <= 0.25
 
 
+def test_surface_rate_limit_is_settable_at_run_time(sim):
+    sim["fcs/surface-rate-limit-deg_s"] = 25.0
+    try:
+        y = _step_response(sim, "fcs/elevator-cmd-norm", 20.0 / 30.0, "fcs/elevator-pos-deg", 0.5)
+        assert np.max(np.diff(y) / sim.dt_s) == pytest.approx(25.0, rel=1e-6)
+    finally:
+        sim["fcs/surface-rate-limit-deg_s"] = 100.0
+
+
 def test_backlash_holds_small_reversals(sim):
     sim["fcs/backlash-width-deg"] = 0.3
     try:

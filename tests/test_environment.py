@@ -239,10 +239,11 @@ def test_named_parameter_sets():
         core.reset(seed=0, parameters="heavy")
 
 
-def test_backlash_width_reaches_jsbsim():
-    core = FlightCore(CoreConfig.ideal(backlash_deg=0.3))
+def test_backlash_width_and_servo_rate_limit_reach_jsbsim():
+    core = FlightCore(CoreConfig.ideal(backlash_deg=0.3, servo_rate_limit_degps=40.0))
     core.reset(seed=0)
     assert core.sim["fcs/backlash-width-deg"] == pytest.approx(0.3)
+    assert core.sim["fcs/surface-rate-limit-deg_s"] == 40.0
 
 
 # ----------------------------------------------------------------------------- reward

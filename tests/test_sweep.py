@@ -51,12 +51,15 @@ def test_the_grid_is_every_combination_in_order():
 def test_each_axis_sets_what_it_names():
     core = condition_config({"delay_ms": 200, "control_interval_ms": 80, "noise_scale": 0, "parameter_strength": 2,
                              "turbulence_sigma_mps": 0, "backlash_deg": 0.5, "altitude_m": 15000,
-                             "eas_mps": 12}).core
+                             "eas_mps": 12, "servo_rate_limit_degps": 40}).core
     assert core.delay_s == (0.2, 0.2) and core.control_interval_s == (0.08, 0.08)
     assert not core.sensor_noise and not core.turbulence and core.parameter_strength == 2.0
     assert core.backlash_deg == 0.5 and core.altitude_range_m == (15000.0, 15000.0) and core.eas_range_mps == (12.0, 12.0)
+    assert core.servo_rate_limit_degps == 40.0
     with pytest.raises(ValueError, match="must be >= 0"):
         CoreConfig(noise_scale=-1.0)
+    with pytest.raises(ValueError, match="servo_rate_limit_degps must be positive"):
+        CoreConfig(servo_rate_limit_degps=0.0)
 
 
 def test_parameter_strength_zero_flies_the_nominal_aircraft():

@@ -15,6 +15,7 @@ depend on how the jobs are spread over processes.
 | parameter_strength | x Table 4 | distance of each coefficient draw from 1 (0: nominal aircraft) |
 | turbulence_sigma_mps | m/s | Dryden intensity on each axis (0: calm) |
 | backlash_deg | deg | servo backlash |
+| servo_rate_limit_degps | deg/s | every surface servo's rate limit (SPEC: 100) |
 | altitude_m | m | start altitude, fixed |
 | eas_mps | m/s | start EAS, fixed |
 """
@@ -46,12 +47,13 @@ AXES: dict[str, Callable[[CoreConfig, float], CoreConfig]] = {
     "parameter_strength": lambda core, v: replace(core, parameter_strength=v),
     "turbulence_sigma_mps": lambda core, v: replace(core, turbulence=v > 0.0, turbulence_sigma_mps=max(v, 1e-9)),
     "backlash_deg": lambda core, v: replace(core, backlash_deg=v),
+    "servo_rate_limit_degps": lambda core, v: replace(core, servo_rate_limit_degps=v),
     "altitude_m": _fixed("altitude_range_m"),
     "eas_mps": _fixed("eas_range_mps"),
 }
 AXIS_UNITS = {"delay_ms": "ms", "control_interval_ms": "ms", "noise_scale": "x Table 3",
               "parameter_strength": "x Table 4", "turbulence_sigma_mps": "m/s", "backlash_deg": "deg",
-              "altitude_m": "m", "eas_mps": "m/s"}
+              "servo_rate_limit_degps": "deg/s", "altitude_m": "m", "eas_mps": "m/s"}
 
 
 def parse_axis(text: str) -> tuple[str, list[float]]:

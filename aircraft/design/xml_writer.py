@@ -510,7 +510,7 @@ def flight_control(g: AircraftGeometry) -> str:
     <actuator name="fcs/{name}-pos-deg">
       <input> fcs/{name}-backlash-deg </input>
       <lag> {lag} </lag>
-      <rate_limit> {rate} </rate_limit>
+      <rate_limit> fcs/surface-rate-limit-deg_s </rate_limit>
       <clipto> <min> {fmt(-limit)} </min> <max> {fmt(limit)} </max> </clipto>
     </actuator>""")
         channels.append(f'  <channel name="{surface}">\n' + "\n".join(parts) + "\n  </channel>")
@@ -535,6 +535,8 @@ def flight_control(g: AircraftGeometry) -> str:
      is positive in its own sense: right down, left up). -->
 <flight_control name="solar_uav">
   <property value="0" persistent="true">fcs/backlash-width-deg</property>
+  <!-- Every servo's rate limit, settable at run time (robustness sweeps). -->
+  <property value="{rate}">fcs/surface-rate-limit-deg_s</property>
 {chr(10).join(channels)}
 {readouts}
 </flight_control>
