@@ -3,14 +3,18 @@
 In one process, interleaved in rounds (medians reported):
 
 * raw: ``fdm.run()`` of the solar UAV at the environment's simulation rate;
+* flight batchN: N flight cores (``FlightCore``: delay, gusts, state read-out, a fresh JSBSim
+  instance per episode) flown in turn with no task or RL library: the floor under any
+  environment built on them, which the ``over_flight`` ratios measure the environment against;
 * task: the attitude task (flight core with every disturbance on, reward, goals) without an RL library;
 * torchrl batchN: ``SolarUAVAttitudeEnv`` with 1 and ``--batch`` aircraft, every disturbance on,
   stepped through TorchRL's ``step_and_maybe_reset``, resets included;
 * torchrl Kproc: K processes, each a batched environment, stepping at once (the two cores of
   this machine, as a multi-process collector would use them); measured after the rounds.
 
-The actions hold wings level and pitch near trim by a little feedback (plus noise), so that
-episodes run their full length like those of a trained policy. Ratios are env / raw.
+The actions hold wings level and pitch near trim by a little feedback (plus noise), computed for
+all aircraft at once so that the benchmark's own work stays small, and episodes run their full
+length like those of a trained policy. Ratios are env / raw (and env / flight).
 
     python scripts/bench_env.py --json
 """
@@ -27,7 +31,7 @@ import numpy as np
 import torch
 
 from jsbsim_env.core import CoreConfig, FlightCore
-from jsbsim_env.task import AttitudeTask, command_to_action
+from jsbsim_env.task import ACTION_OFFSET, ACTION_SCALE, AttitudeTask, command_to_action
 from jsbsim_env.torchrl_env import SolarUAVAttitudeEnv
 from jsbsim_env.trim_table import TrimTable
 
@@ -42,13 +46,40 @@ def raw_rate(seconds: float) -> float:
     return n * core.dt_s / (time.perf_counter() - t0)
 
 
-def _hold_attitude(core, rng) -> np.ndarray:
-    """Wings level and trimmed pitch by proportional-derivative feedback on the true state, so that
-    episodes run their full length as under a trained policy (the spiral mode diverges otherwise)."""
-    s, trim = core.last_true_state, core.setup.trim_command
-    roll, pitch, p, q = np.degrees(s[1:5])
-    command = trim + np.array([1.5 * roll + 0.5 * p, 2.0 * pitch + 0.5 * q, 0.0, 0.0])
-    return np.clip(command_to_action(command) + 0.01 * rng.standard_normal(4), -1.0, 1.0)
+def hold_attitude(cores, rng) -> np.ndarray:
+    """Actions (N x 4) for wings level and trimmed pitch by proportional-derivative feedback on each
+    aircraft's true state, so that episodes run their full length as under a trained policy (the
+    spiral mode diverges otherwise)."""
+    states = np.array([c.last_true_state for c in cores])
+    command = np.array([c.setup.trim_command for c in cores])
+    roll, pitch, p, q = np.degrees(states[:, 1:5]).T
+    command[:, 0] += 1.5 * roll + 0.5 * p
+    command[:, 1] += 2.0 * pitch + 0.5 * q
+    return np.clip(command_to_action(command) + 0.01 * rng.standard_normal(command.shape), -1.0, 1.0)
+
+
+def flight_rate(cores, seconds: float, seed: int) -> float:
+    """The flight cores alone, flown in turn with new episodes as the environment starts them."""
+    rng = np.random.default_rng(seed)
+    for k, core in enumerate(cores):
+        core.reset(seed + k)
+        core.last_true_state = core.true_state()
+    max_steps = cores[0].config.max_steps
+    sim_s, t0 = 0.0, time.perf_counter()
+    while sim_s < seconds:
+        commands = action_to_command_rows(hold_attitude(cores, rng))
+        for k, (core, command) in enumerate(zip(cores, commands)):
+            core.fly(command)
+            core.last_true_state = core.true_state()
+            sim_s += core.setup.control_interval_s
+            if core.step_index >= max_steps:
+                core.reset(int(rng.integers(2**31)))
+                core.last_true_state = core.true_state()
+    return sim_s / (time.perf_counter() - t0)
+
+
+def action_to_command_rows(actions: np.ndarray) -> list[list[float]]:
+    return (ACTION_OFFSET + ACTION_SCALE * actions).tolist()
 
 
 def task_rate(seconds: float, seed: int) -> float:
@@ -56,7 +87,7 @@ def task_rate(seconds: float, seed: int) -> float:
     task.reset(seed)
     sim_s, t0 = 0.0, time.perf_counter()
     while sim_s < seconds:
-        _, _, terminated, truncated, _ = task.step(_hold_attitude(task.core, rng))
+        _, _, terminated, truncated, _ = task.step(hold_attitude([task.core], rng)[0])
         sim_s += task.core.setup.control_interval_s
         if terminated or truncated:
             task.reset(int(rng.integers(2**31)))
@@ -68,8 +99,7 @@ def torchrl_rate(env: SolarUAVAttitudeEnv, seconds: float, seed: int) -> float:
     td = env.reset()
     sim_s, t0 = 0.0, time.perf_counter()
     while sim_s < seconds:
-        actions = np.stack([_hold_attitude(c, rng) for c in env.batch.cores]).astype(np.float32)
-        td["action"] = torch.from_numpy(actions)
+        td["action"] = torch.from_numpy(hold_attitude(env.batch.cores, rng).astype(np.float32))
         sim_s += float(env.batch.interval_s.sum())
         td = env.step_and_maybe_reset(td)[1]
     return sim_s / (time.perf_counter() - t0)
@@ -108,19 +138,25 @@ def main() -> None:
     torch.set_num_threads(1)
     TrimTable.shared().fill()  # trims are cached per process; keep their first computation out of the timings
     envs = {1: SolarUAVAttitudeEnv(1, seed=1), **{n: SolarUAVAttitudeEnv(n, seed=n) for n in args.batch}}
+    flights = {n: [FlightCore(CoreConfig()) for _ in range(n)] for n in envs}
     rates: dict[str, list[float]] = {"raw": [], "task_single": []}
     for n in envs:
+        rates[f"flight_batch{n}"] = []
         rates[f"torchrl_batch{n}"] = []
     for r in range(args.rounds):
         rates["raw"].append(raw_rate(args.seconds))
         rates["task_single"].append(task_rate(args.seconds, r))
         for n, env in envs.items():
+            rates[f"flight_batch{n}"].append(flight_rate(flights[n], args.seconds * n, 1000 * r))
             rates[f"torchrl_batch{n}"].append(torchrl_rate(env, args.seconds * n, r))
     result = {"sim_rate_hz": CoreConfig().sim_rate_hz, "rounds": args.rounds}
     for name, values in rates.items():
         result[f"{name}_sim_s_per_wall_s"] = statistics.median(values)
         if name != "raw":
             result[f"{name}_over_raw"] = statistics.median(v / r for v, r in zip(values, rates["raw"]))
+    for n in envs:  # what the task and TorchRL layers cost on top of the flight cores they drive
+        result[f"torchrl_batch{n}_over_flight"] = statistics.median(
+            v / f for v, f in zip(rates[f"torchrl_batch{n}"], rates[f"flight_batch{n}"]))
     if args.processes > 1:
         n = args.batch[0]
         rate = processes_rate(args.processes, n, args.seconds, 100)
