@@ -46,6 +46,42 @@ def test_vectorised_reward_matches_the_per_aircraft_one():
         assert reward_from_achieved(achieved, goal) == pytest.approx(reward_terms(state, goal)[4], abs=1e-12)
         as_torch = reward_from_achieved(torch.tensor(achieved), torch.tensor(goal))
         assert float(as_torch) == pytest.approx(reward_terms(state, goal)[4], abs=1e-9)
+        # A sideslip weight scales the sideslip penalty (and its cap) alone, in both.
+        terms, weighted = reward_terms(state, goal), reward_terms(state, goal, 3.0)
+        assert weighted[:3] == terms[:3] and weighted[3] == pytest.approx(3.0 * terms[3])
+        assert reward_from_achieved(achieved, goal, 3.0) == pytest.approx(weighted[4], abs=1e-12)
+
+
+def test_a_sideslip_weight_trains_on_its_reward_and_evaluates_on_eq_22():
+    from jsbsim_env.task import TaskConfig
+    from training.trainer import evaluate_policy
+
+    env = make_env(num_envs=2, config=TaskConfig(sideslip_weight=3.0), seed=5)
+    torch.manual_seed(0)
+    data = env.rollout(30, break_when_any_done=False).reshape(-1)
+    achieved, goal = data["next", "achieved"].double().numpy(), _goals(data["observation"])
+    np.testing.assert_allclose(data["next", "reward"].reshape(-1).double().numpy(),
+                               reward_from_achieved(achieved, goal, 3.0), atol=1e-5)
+    relabelled = relabel_goals(data, 1.0, 2.0, torch.Generator().manual_seed(0), sideslip_weight=3.0)
+    new_goal = _goals(relabelled["observation"])
+    np.testing.assert_allclose(relabelled["next", "reward"].reshape(-1).double().numpy(),
+                               reward_from_achieved(achieved, new_goal, 3.0), atol=1e-5)
+    # The training-time evaluation scores with Eq. 22 whatever the run trains on.
+    def policy(td):  # neutral surfaces and half throttle, the same in both evaluations
+        return td.set("action", torch.zeros(td.shape[0], 4))
+
+    weighted = evaluate_policy(policy, TaskConfig(sideslip_weight=3.0), episodes=2, max_steps=20, seed=3)
+    plain = evaluate_policy(policy, TaskConfig(), episodes=2, max_steps=20, seed=3)
+    assert weighted["return_norm"] == plain["return_norm"]
+
+
+@pytest.mark.parametrize(("field", "value"), [("integral_trim", -0.1), ("integral_trim", 2.5),
+                                              ("sideslip_weight", -1.0), ("sideslip_weight", 11.0)])
+def test_training_options_out_of_range_are_refused(field, value):
+    from jsbsim_env.task import TaskConfig
+
+    with pytest.raises(ValueError, match=f"{field} must lie in"):
+        TaskConfig(**{field: value})
 
 
 def test_achieved_state_reproduces_the_environment_reward(rollout):
