@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import json
 import re
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +24,7 @@ import torch
 
 import aircraft
 from jsbsim_env.controllers.pid import PIDAttitudeController
+from jsbsim_env.missions import RouteConfig
 from training.controllers import make_controller
 from training.policy import load_policy, policy_digest
 from training.provenance import training_wall_clock
@@ -49,9 +51,9 @@ def score(controller_factory, out_dir: Path, policy: Path | None, episodes: int,
           integral_trim: float = 0.0) -> dict:
     """Suite, routes and their figures into ``out_dir``, kept in ``out_dir/scorecard.json`` and
     reused while the controller (the policy file's digest, or the PID, and its integral trim), the
-    aircraft model, the episode count and ``quick`` are the same."""
+    aircraft model, the route settings, the episode count and ``quick`` are the same."""
     key = {"controller": policy_digest(policy) if policy is not None else "PID", "episodes": episodes,
-           "quick": quick, "aircraft_model": aircraft.model_fingerprint()}
+           "quick": quick, "aircraft_model": aircraft.model_fingerprint(), "route": asdict(RouteConfig())}
     if integral_trim:
         key["integral_trim"] = integral_trim
     path = out_dir / "scorecard.json"
