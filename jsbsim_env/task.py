@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from jsbsim_env.controllers.integral_trim import TrimIntegrator
+from jsbsim_env.controllers.pid import GainSchedule, PIDAttitudeController
 from jsbsim_env.core import N_STATE, SCALED_TERMS, CoreConfig, FlightCore, envelope_code, termination_reason
 
 GOAL_NAMES = ("roll_cmd_rad", "pitch_cmd_rad", "airspeed_eas_cmd_mps")
@@ -148,6 +149,9 @@ class TaskConfig:
     ``integral_trim`` f > 0 adds integral trim at f times the PID's integral gains to the policy's
     aileron and elevator commands and shows the two trims in the observation (``TRIM_SIZE``).
     ``sideslip_weight`` multiplies Eq. 22's sideslip penalty and its cap (1: the paper's reward).
+    ``external_throttle`` is the share of episodes in which a speed hold (the PID's airspeed loop)
+    flies the throttle instead of the policy, as TECS does on a route; the policy sees it in the
+    measured throttle against its own last throttle action.
     """
 
     core: CoreConfig = field(default_factory=CoreConfig)
@@ -155,6 +159,7 @@ class TaskConfig:
     error_integral_decay: float = 0.0  # per control step; 0.99 forgets with a time constant of 100 steps
     integral_trim: float = 0.0  # fraction of the PID's integral gains; 0: none, as the paper
     sideslip_weight: float = 1.0
+    external_throttle: float = 0.0  # share of episodes; 0: the policy always flies the throttle, as the paper
 
     def __post_init__(self):
         if not 0.0 <= self.error_integral_decay < 1.0:
@@ -163,6 +168,8 @@ class TaskConfig:
             raise ValueError(f"integral_trim must lie in [0, 2], got {self.integral_trim}")
         if not 0.0 <= self.sideslip_weight <= 10.0:
             raise ValueError(f"sideslip_weight must lie in [0, 10], got {self.sideslip_weight}")
+        if not 0.0 <= self.external_throttle <= 1.0:
+            raise ValueError(f"external_throttle must lie in [0, 1], got {self.external_throttle}")
 
     @property
     def observation_size(self) -> int:
@@ -246,6 +253,13 @@ class AttitudeTaskBatch:
         trim = self.config.integral_trim
         self._trims = [TrimIntegrator(trim) for _ in range(n)] if trim > 0.0 else None
         self._sideslip_weight = self.config.sideslip_weight
+        self._external_share = self.config.external_throttle
+        if self._external_share > 0.0:
+            schedule = GainSchedule()
+            self._speed_holds = [PIDAttitudeController(schedule) for _ in range(n)]
+        else:
+            self._speed_holds = None
+        self.external_throttle = [False] * n  # whether the speed hold flies each aircraft's throttle
         self._obs_lists: list[list[float]] = [[0.0] * self.config.observation_size for _ in range(n)]
         self._recent_actions: list[list[float]] = [[0.0] * (RECENT_ACTIONS * ACTION_SIZE) for _ in range(n)]
 
@@ -264,6 +278,9 @@ class AttitudeTaskBatch:
         self._goal_lists[i] = self.goals[i].tolist()
         self.next_goal_change_s[i] = grng.uniform(*self.config.goal_hold_s, size=3)
         self._next_goal_change_min_s[i] = float(self.next_goal_change_s[i].min())
+        if self._speed_holds is not None:  # drawn only then, so that other settings keep their goal draws
+            self.external_throttle[i] = bool(grng.random() < self._external_share)
+            self._speed_holds[i].reset()
         self.noise[i] = core.noise.step(core.setup.control_interval_s, core.rng) if self._sensor_noise \
             else [0.0] * N_STATE
         self.steps[i] = 0
@@ -300,6 +317,11 @@ class AttitudeTaskBatch:
             command = [o + k * x for x, k, o in zip(a, self._act_scale, self._act_offset)]
             if self._trims is not None:
                 command = self._trims[i].apply(command)
+            if self.external_throttle[i]:
+                # The speed hold reads the measurement the policy acted on.
+                measured = [x + e for x, e in zip(self.states[i], self.noise[i])]
+                command[3] = self._speed_holds[i].update(core.setup.control_interval_s, measured,
+                                                         self._goal_lists[i])[3]
             core.fly(command)
             self.states[i] = state = core.last_true_state = core.true_state()
             code = codes[i] = envelope_code(state, core.height_above_ground_m(), envelope)

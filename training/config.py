@@ -35,6 +35,8 @@ class EnvSettings:
                                    "integral_trim; 0: none, as the paper)")
     sideslip_weight: float = _f(1.0, "training reward's sideslip penalty and its cap times this (1: SPEC Eq. 22); "
                                      "evaluations keep Eq. 22")
+    external_throttle: float = _f(0.0, "share of training episodes whose throttle a speed hold flies instead of the "
+                                       "policy, as TECS does on a route (0: none, as the paper)")
 
 
 @dataclass
@@ -117,8 +119,9 @@ class TrainConfig:
     def preset(cls, name: str) -> TrainConfig:
         """A named starting configuration: ``"default"`` (this package's) or ``"paper"`` (SPEC
         section 3 as far as this environment allows: a fixed temperature of 0.2, one gradient step
-        per environment step, no goal relabelling, no error integrals or integral trim, Eq. 22's reward; the observation keeps the
-        last action, without which nothing learned, README)."""
+        per environment step, no goal relabelling, no error integrals, integral trim or external
+        throttle, Eq. 22's reward; the observation keeps the last action, without which nothing
+        learned, README)."""
         config = cls()
         if name == "paper":
             config.optim.auto_alpha = False
@@ -128,6 +131,7 @@ class TrainConfig:
             config.env.error_integral_decay = 0.0
             config.env.integral_trim = 0.0
             config.env.sideslip_weight = 1.0
+            config.env.external_throttle = 0.0
         elif name != "default":
             raise ValueError(f"unknown preset {name!r}: use one of {PRESETS}")
         return config

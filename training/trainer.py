@@ -92,7 +92,8 @@ class Trainer:
         self.device = torch.device(c.device)
         core = CoreConfig() if c.env.disturbances else CoreConfig.ideal()
         self.task_config = TaskConfig(core=core, error_integral_decay=c.env.error_integral_decay,
-                                      integral_trim=c.env.integral_trim, sideslip_weight=c.env.sideslip_weight)
+                                      integral_trim=c.env.integral_trim, sideslip_weight=c.env.sideslip_weight,
+                                      external_throttle=c.env.external_throttle)
         self.env = make_env(c.env.num_envs, self.task_config, seed=c.seed, window=c.env.window,
                             critic_state=c.network.critic == "state")
         obs_size = self.task_config.observation_size
@@ -371,10 +372,12 @@ def evaluate_policy(policy, task_config: TaskConfig, episodes: int = 8, max_step
     fly ``episodes`` episodes side by side with the deterministic policy, each once.
 
     Returns the mean normalised return (episode reward / max_steps, SPEC Fig. 8; always with Eq. 22's
-    reward, whatever sideslip weight the run trains with), the mean episode length and the number
-    of episodes that ended early (terminated, not truncated).
+    reward and the policy on the throttle, whatever sideslip weight and external throttle the run
+    trains with), the mean episode length and the number of episodes that ended early (terminated,
+    not truncated).
     """
-    env = make_env(episodes, dataclasses.replace(task_config, sideslip_weight=1.0), seed=seed, window=window)
+    plain = dataclasses.replace(task_config, sideslip_weight=1.0, external_throttle=0.0)
+    env = make_env(episodes, plain, seed=seed, window=window)
     td = env.reset()
     active = torch.ones(episodes, dtype=torch.bool)
     total = torch.zeros(episodes)

@@ -1,0 +1,29 @@
+"""The task's training options beyond the paper: their ranges, and the speed hold that flies the
+throttle in a share of the episodes."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from jsbsim_env.task import AttitudeTaskBatch, TaskConfig
+
+
+@pytest.mark.parametrize(("field", "value"), [("integral_trim", -0.1), ("integral_trim", 2.5), ("external_throttle", 1.5),
+                                              ("sideslip_weight", -1.0), ("sideslip_weight", 11.0)])
+def test_training_options_out_of_range_are_refused(field, value):
+    with pytest.raises(ValueError, match=f"{field} must lie in"):
+        TaskConfig(**{field: value})
+
+
+def test_external_throttle_flies_the_throttle_whatever_the_policy_commands():
+    def fly(throttle_action: float, share: float) -> np.ndarray:
+        batch = AttitudeTaskBatch(1, TaskConfig(external_throttle=share))
+        batch.reset_one(0, seed=12)
+        for _ in range(60):
+            batch.step(np.array([[0.0, 0.0, 0.0, throttle_action]]))
+        assert batch.external_throttle[0] == (share == 1.0)
+        return np.array(batch.states[0])
+
+    np.testing.assert_array_equal(fly(-1.0, 1.0), fly(1.0, 1.0))  # the speed hold's throttle alone
+    assert abs(fly(-1.0, 0.0)[6] - fly(1.0, 0.0)[6]) > 0.5  # the policy's throttle otherwise
