@@ -56,6 +56,7 @@ def score(controller_factory, out_dir: Path, policy: Path | None, episodes: int,
            "quick": quick, "aircraft_model": aircraft.model_fingerprint(), "route": asdict(RouteConfig())}
     if integral_trim:
         key["integral_trim"] = integral_trim
+    key = json.loads(json.dumps(key))  # as it reads back from the file (tuples become lists)
     path = out_dir / "scorecard.json"
     if path.exists():
         cached = json.loads(path.read_text())
