@@ -67,8 +67,8 @@ def flight_rate(cores, seconds: float, seed: int) -> float:
     max_steps = cores[0].config.max_steps
     sim_s, t0 = 0.0, time.perf_counter()
     while sim_s < seconds:
-        commands = action_to_command_rows(hold_attitude(cores, rng))
-        for k, (core, command) in enumerate(zip(cores, commands)):
+        commands = (ACTION_OFFSET + ACTION_SCALE * hold_attitude(cores, rng)).tolist()
+        for core, command in zip(cores, commands):
             core.fly(command)
             core.last_true_state = core.true_state()
             sim_s += core.setup.control_interval_s
@@ -76,10 +76,6 @@ def flight_rate(cores, seconds: float, seed: int) -> float:
                 core.reset(int(rng.integers(2**31)))
                 core.last_true_state = core.true_state()
     return sim_s / (time.perf_counter() - t0)
-
-
-def action_to_command_rows(actions: np.ndarray) -> list[list[float]]:
-    return (ACTION_OFFSET + ACTION_SCALE * actions).tolist()
 
 
 def task_rate(seconds: float, seed: int) -> float:
