@@ -250,15 +250,11 @@ class AttitudeTaskBatch:
         self._obs_inv_scale = (1.0 / OBS_SCALE).tolist()
         decay = self.config.error_integral_decay
         self._integrals = [ErrorIntegrals(decay) for _ in range(n)] if decay > 0.0 else None
-        trim = self.config.integral_trim
-        self._trims = [TrimIntegrator(trim) for _ in range(n)] if trim > 0.0 else None
+        trim, self._external_share = self.config.integral_trim, self.config.external_throttle
+        schedule = GainSchedule() if trim > 0.0 or self._external_share > 0.0 else None  # read once for all
+        self._trims = [TrimIntegrator(trim, schedule) for _ in range(n)] if trim > 0.0 else None
+        self._speed_holds = [PIDAttitudeController(schedule) for _ in range(n)] if self._external_share > 0.0 else None
         self._sideslip_weight = self.config.sideslip_weight
-        self._external_share = self.config.external_throttle
-        if self._external_share > 0.0:
-            schedule = GainSchedule()
-            self._speed_holds = [PIDAttitudeController(schedule) for _ in range(n)]
-        else:
-            self._speed_holds = None
         self.external_throttle = [False] * n  # whether the speed hold flies each aircraft's throttle
         self._obs_lists: list[list[float]] = [[0.0] * self.config.observation_size for _ in range(n)]
         self._recent_actions: list[list[float]] = [[0.0] * (RECENT_ACTIONS * ACTION_SIZE) for _ in range(n)]

@@ -41,7 +41,6 @@ def run_summary(run_dir: Path, final_evals: int = 3) -> dict:
     return summary
 
 
-
 def plot_curves(runs: list[Path], out: Path) -> None:
     """SPEC Fig. 8 from the runs' ``progress.csv``: episode length, training and evaluation return
     against environment steps, and the evaluation return against wall-clock; mean and min-max."""

@@ -226,15 +226,17 @@ class PolicyRuntime:
         if first:
             self._last_action = initial_last_action(measurement)
         obs = scale_observation(measurement, self._last_action, np.asarray(goal))
-        if self._trim is not None:
-            if dt_s is None:
-                raise ValueError("this policy was trained with integral trim: give act() the control interval dt_s")
-            if not first:  # as in training: the integrators start from zero with the episode
-                self._trim.integrate(dt_s, measurement, goal)
-            obs = insert_trims(obs.tolist(), self._trim.trim_deg)
-        if self._integrals is not None:
-            obs = self._integrals.extend(obs if isinstance(obs, list) else obs.tolist())
-        obs = np.asarray(obs, dtype=np.float32)
+        if self._trim is not None or self._integrals is not None:  # the layout of AttitudeTaskBatch._observation
+            row = obs.tolist()
+            if self._trim is not None:
+                if dt_s is None:
+                    raise ValueError("this policy was trained with integral trim: give act() the control interval dt_s")
+                if not first:  # as in training: the integrators start from zero with the episode
+                    self._trim.integrate(dt_s, measurement, goal)
+                row = insert_trims(row, self._trim.trim_deg)
+            if self._integrals is not None:
+                row = self._integrals.extend(row)
+            obs = np.asarray(row, dtype=np.float32)
         # ufuncs directly: np.clip's wrapper alone costs about 10 us a call
         self._last_action = np.minimum(np.maximum(self.action(self._push(obs)).astype(np.float64), -1.0), 1.0)
         command = action_to_command(self._last_action)

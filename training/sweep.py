@@ -137,13 +137,11 @@ def run_local(jobs: list[Job], policy: str | None = None, workers: int = 1, prog
             if progress is not None:
                 progress(1)
         return out
-    from concurrent.futures import ProcessPoolExecutor
+    from concurrent.futures import ProcessPoolExecutor, as_completed
 
     results: list[list[dict]] = [[] for _ in jobs]
     with ProcessPoolExecutor(max_workers=workers) as pool:
         futures = {pool.submit(run_job, job, policy): i for i, job in enumerate(jobs)}
-        from concurrent.futures import as_completed
-
         for future in as_completed(futures):
             results[futures[future]] = future.result()
             if progress is not None:

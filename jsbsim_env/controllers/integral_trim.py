@@ -21,6 +21,8 @@ Two ways to use them: ``IntegralTrim`` wraps any controller after the fact; a po
 
 from __future__ import annotations
 
+from dataclasses import fields
+
 import numpy as np
 
 from jsbsim_env.controllers.base import AttitudeController
@@ -28,6 +30,7 @@ from jsbsim_env.controllers.pid import (
     DESIGN_EAS_MPS,
     MIN_EAS_FOR_SCALING_MPS,
     SURFACE_INTEGRATOR_LIMIT_DEG,
+    DesignPoint,
     GainSchedule,
 )
 from jsbsim_env.core import COMMAND_HIGH, COMMAND_LOW
@@ -44,7 +47,7 @@ class TrimIntegrator:
             raise ValueError(f"integral trim fraction must lie in (0, 2], got {fraction}")
         self.fraction = float(fraction)
         schedule = schedule or GainSchedule()
-        names = list(schedule.at(schedule.altitudes_m[0]).__dataclass_fields__)
+        names = [f.name for f in fields(DesignPoint)]  # the order of the schedule's columns
         self._altitudes_m = schedule.altitudes_m
         self._k_roll_i = schedule.values[:, names.index("k_roll_i")]
         self._k_pitch_i = schedule.values[:, names.index("k_pitch_i")]
