@@ -10,7 +10,10 @@ default):
 2. TECS gives the pitch demand and the throttle for the route altitude and EAS.
 3. The attitude controller (PID, trained policy, ...) turns the measurement and the demands
    (roll, pitch, EAS) into surface and throttle commands; TECS's throttle replaces its throttle,
-   as in the paper.
+   as in the paper. Since TECS flies the speed, the attitude controller's EAS demand is by default
+   its measured EAS (``RouteConfig.attitude_eas_demand``): it has no airspeed error to act on, as
+   in the speed-free training episodes (``TaskConfig.external_throttle``). The PID's surfaces do not
+   depend on the EAS demand; the paper's setting passes TECS's EAS demand on.
 4. The flight core applies the commands with its delay, actuator lag and rate limits, backlash,
    turbulence (on the chosen legs only), sensor noise and parameter set.
 
@@ -31,6 +34,9 @@ from jsbsim_env.controllers.pid import GainSchedule
 from jsbsim_env.controllers.tecs import TECS, TECSParams
 from jsbsim_env.core import CoreConfig, FlightCore
 from jsbsim_env.metrics import actuator_smoothness, rmse
+from jsbsim_env.task import EAS_INDEX
+
+ATTITUDE_EAS_DEMANDS = ("measured", "route")
 
 
 @dataclass(frozen=True)
@@ -59,6 +65,14 @@ class RouteConfig:
     seed: int = 0
     tecs: TECSParams = field(default_factory=TECSParams)
     l1: L1Params = field(default_factory=L1Params)
+    # The EAS demand the attitude controller gets: "measured" (no airspeed error; TECS flies the
+    # speed) or "route" (the route's EAS, as the paper). The metrics always score the route's EAS.
+    attitude_eas_demand: str = "measured"
+
+    def __post_init__(self):
+        if self.attitude_eas_demand not in ATTITUDE_EAS_DEMANDS:
+            raise ValueError(f"attitude_eas_demand must be one of {ATTITUDE_EAS_DEMANDS}, "
+                             f"got {self.attitude_eas_demand!r}")
 
     def waypoints(self) -> np.ndarray:
         if self.waypoints_ne_m is not None:
@@ -158,7 +172,7 @@ class RouteFlight:
 
     def demand(self) -> tuple[np.ndarray, np.ndarray]:
         """The step's measurement (``core.STATE_NAMES``) and attitude demands (roll, pitch in rad,
-        EAS in m/s): L1 guidance and TECS, once per step."""
+        EAS in m/s, as ``RouteConfig.attitude_eas_demand`` says): L1 guidance and TECS, once per step."""
         if self.done:
             raise RuntimeError("the route flight is over")
         cfg, nav, wp = self.config, self.core.navigation(), self.waypoints
@@ -177,6 +191,8 @@ class RouteFlight:
         setpoint = np.array([guidance.roll_rad, energy.pitch_rad, cfg.eas_mps])
         self.navigation = nav
         self._pending = (nav, guidance.cross_track_m, setpoint, energy.throttle)
+        if cfg.attitude_eas_demand == "measured":
+            setpoint = np.array([setpoint[0], setpoint[1], m[EAS_INDEX]])
         return m, setpoint
 
     def advance(self, command) -> str | None:

@@ -114,6 +114,7 @@ def initial_last_action(measurement: np.ndarray) -> np.ndarray:
 REWARD_TERMS = ("penalty_roll", "penalty_pitch", "penalty_airspeed", "penalty_beta")
 # The state elements the reward depends on (``core.STATE_NAMES`` order): roll, pitch, V_eas, sideslip.
 ACHIEVED_INDEX = (1, 2, 6, 8)
+EAS_INDEX = ACHIEVED_INDEX[2]
 # Errors at which each penalty of Eq. 22 saturates (rad, rad, m/s): beyond them a goal error
 # no longer changes the reward.
 PENALTY_SATURATION = (math.radians(1.5), math.radians(1.8), 1.5)
@@ -150,8 +151,10 @@ class TaskConfig:
     aileron and elevator commands and shows the two trims in the observation (``TRIM_SIZE``).
     ``sideslip_weight`` multiplies Eq. 22's sideslip penalty and its cap (1: the paper's reward).
     ``external_throttle`` is the share of episodes in which a speed hold (the PID's airspeed loop)
-    flies the throttle instead of the policy, as TECS does on a route; the policy sees it in the
-    measured throttle against its own last throttle action.
+    flies the throttle instead of the policy, as TECS does on a route. Those episodes are speed-free
+    for the policy, as a route flown with ``RouteConfig.attitude_eas_demand = "measured"`` is: its
+    EAS goal is its measured EAS (so it sees no airspeed error) and the reward has no airspeed term,
+    so that it learns to track pitch rather than trade pitch for an airspeed it does not fly.
     """
 
     core: CoreConfig = field(default_factory=CoreConfig)
@@ -313,15 +316,19 @@ class AttitudeTaskBatch:
             command = [o + k * x for x, k, o in zip(a, self._act_scale, self._act_offset)]
             if self._trims is not None:
                 command = self._trims[i].apply(command)
-            if self.external_throttle[i]:
-                # The speed hold reads the measurement the policy acted on.
+            external = self.external_throttle[i]
+            if external:
+                # The speed hold reads the measurement the policy acted on and flies the real goal.
                 measured = [x + e for x, e in zip(self.states[i], self.noise[i])]
                 command[3] = self._speed_holds[i].update(core.setup.control_interval_s, measured,
                                                          self._goal_lists[i])[3]
             core.fly(command)
             self.states[i] = state = core.last_true_state = core.true_state()
             code = codes[i] = envelope_code(state, core.height_above_ground_m(), envelope)
-            t = reward_terms(state, self._goal_lists[i], self._sideslip_weight)
+            goal = self._goal_lists[i]
+            if external:  # speed-free: no airspeed term
+                goal = [goal[0], goal[1], state[EAS_INDEX]]
+            t = reward_terms(state, goal, self._sideslip_weight)
             if code and not math.isfinite(t[4]):
                 t = [0.0] * 5
             terms.append(t)
@@ -367,6 +374,8 @@ class AttitudeTaskBatch:
         where configured, goal), as a list; once per control step (it advances the integrals)."""
         raw = self.states[i] + self.last_actions[i] + self._goal_lists[i]
         noise = self.noise[i] + _NO_EXTRA_NOISE
+        if self.external_throttle[i]:  # speed-free: the EAS goal is the measured EAS
+            raw[-1] = self.states[i][EAS_INDEX] + self.noise[i][EAS_INDEX]
         obs = [(x + n - o) * k for x, n, o, k in zip(raw, noise, self._obs_offset, self._obs_inv_scale)]
         if self._trims is not None:
             obs = insert_trims(obs, self._trims[i].trim_deg)

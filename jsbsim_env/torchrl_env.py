@@ -34,7 +34,9 @@ class SolarUAVAttitudeEnv(EnvBase):
     penalties of ``task.REWARD_TERMS``, with
     ``reward = 1 - reward_terms.sum(-1)``, and ``achieved`` (num_envs, 4): the true roll, pitch
     (rad), V_eas (m/s) and sideslip (rad) the reward was computed from (``task.ACHIEVED_INDEX``),
-    which lets a learner recompute the reward for another goal.
+    which lets a learner recompute the reward for another goal. Where some episodes' throttle is
+    flown by a speed hold (``TaskConfig.external_throttle``), ``speed_free`` (num_envs, 1) marks them:
+    their reward has no airspeed term and their EAS goal is not a goal to relabel.
     """
 
     batch_locked = True
@@ -54,6 +56,9 @@ class SolarUAVAttitudeEnv(EnvBase):
         specs = {"observation": Unbounded(shape=(*n, obs_size), dtype=torch.float32),
                  "reward_terms": Unbounded(shape=(*n, len(REWARD_TERMS)), dtype=torch.float32),
                  "achieved": Unbounded(shape=(*n, len(ACHIEVED_INDEX)), dtype=torch.float32)}
+        self._speed_free = self.batch.config.external_throttle > 0.0
+        if self._speed_free:
+            specs["speed_free"] = Categorical(2, shape=(*n, 1), dtype=torch.bool)
         if critic_state:
             specs["state"] = Unbounded(shape=(*n, self.batch.config.critic_state_size), dtype=torch.float32)
         self.observation_spec = Composite(specs, shape=n)
@@ -109,6 +114,8 @@ class SolarUAVAttitudeEnv(EnvBase):
                   "achieved": torch.from_numpy(self._achieved.copy()),
                   "reward": torch.from_numpy(np.asarray(rewards, dtype=np.float32)).reshape(n, 1),
                   "terminated": terminated_t, "truncated": truncated_t, "done": terminated_t | truncated_t}
+        if self._speed_free:
+            values["speed_free"] = torch.tensor(self.batch.external_throttle).reshape(n, 1)
         if self.critic_state:
             values["state"] = torch.from_numpy(self.batch.critic_states())
         return TensorDict._new_unsafe(values, batch_size=self.batch_size, device=self.device)

@@ -45,7 +45,22 @@ def test_level_flight_window_is_tight(pid_route):
     assert m["max_cross_track_m"] < 20.0
 
 
+def test_pid_surfaces_do_not_depend_on_the_attitude_eas_demand():
+    """TECS flies the speed: the PID's EAS demand only drives the throttle TECS replaces, so the
+    measured-EAS demand (the default) and the route's EAS fly the same route."""
+    def fly(demand: str):
+        return fly_route(PIDAttitudeController(), RouteConfig(duration_s=60.0, turbulence_legs=(0,), seed=4,
+                                                              attitude_eas_demand=demand))
+
+    measured, route = fly("measured"), fly("route")
+    np.testing.assert_array_equal(measured.arrays["command"], route.arrays["command"])
+    np.testing.assert_array_equal(measured.arrays["eas_cmd_mps"], route.arrays["eas_cmd_mps"])  # scored on the route's
+    assert set(measured.arrays["eas_cmd_mps"]) == {RouteConfig().eas_mps}
+
+
 def test_bad_route_settings():
+    with pytest.raises(ValueError, match="attitude_eas_demand"):
+        RouteConfig(attitude_eas_demand="tecs")
     with pytest.raises(ValueError, match="waypoints"):
         RouteConfig(waypoints_ne_m=((0.0, 0.0),)).waypoints()
     with pytest.raises(ValueError, match="shorter than 1 m"):

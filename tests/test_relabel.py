@@ -17,6 +17,7 @@ from jsbsim_env.task import (
     OBS_OFFSET,
     OBS_SCALE,
     PENALTY_SATURATION,
+    TaskConfig,
     reward_from_achieved,
     reward_terms,
 )
@@ -118,3 +119,12 @@ def test_a_fraction_is_relabelled(rollout):
     out = relabel_goals(big, 0.3, 2.0, generator=torch.Generator().manual_seed(0))
     changed = (out["observation"][:, -1, -3:] != big["observation"][:, -1, -3:]).any(-1).float().mean()
     assert math.isclose(float(changed), 0.3, abs_tol=0.05)
+
+
+def test_speed_free_transitions_keep_their_goals():
+    env = make_env(num_envs=2, config=TaskConfig(external_throttle=1.0), seed=5)
+    batch = env.rollout(10, break_when_any_done=False).reshape(-1)
+    assert bool(batch["next", "speed_free"].all())
+    out = relabel_goals(batch, 1.0, 2.0, generator=torch.Generator().manual_seed(0))
+    assert torch.equal(out["observation"], batch["observation"])
+    assert torch.equal(out["next", "reward"], batch["next", "reward"])

@@ -27,3 +27,26 @@ def test_external_throttle_flies_the_throttle_whatever_the_policy_commands():
 
     np.testing.assert_array_equal(fly(-1.0, 1.0), fly(1.0, 1.0))  # the speed hold's throttle alone
     assert abs(fly(-1.0, 0.0)[6] - fly(1.0, 0.0)[6]) > 0.5  # the policy's throttle otherwise
+
+
+def test_speed_hold_episodes_are_speed_free_for_the_policy():
+    """The EAS goal the policy sees is its measured EAS, the reward has no airspeed term, and the
+    environment marks those steps for the learner (so relabelling leaves them alone)."""
+    from jsbsim_env.task import EAS_INDEX, OBS_OFFSET, OBS_SCALE
+    from jsbsim_env.torchrl_env import SolarUAVAttitudeEnv
+
+    batch = AttitudeTaskBatch(1, TaskConfig(external_throttle=1.0))
+    batch.reset_one(0, seed=5)
+    real_goal_mps = batch.goals[0, 2]
+    for _ in range(20):
+        obs, terms, *_ = batch.step(np.zeros((1, 4)))
+        raw = obs[0] * OBS_SCALE + OBS_OFFSET
+        assert raw[-1] == pytest.approx(raw[EAS_INDEX], abs=1e-4)  # goal column = measured EAS column
+        assert terms[0, 2] == 0.0  # no airspeed penalty
+    assert abs(batch.states[0][EAS_INDEX] - real_goal_mps) > 1e-3  # the speed hold still flies the real goal
+
+    env = SolarUAVAttitudeEnv(2, TaskConfig(external_throttle=0.5), seed=3)
+    td = env.rollout(3)
+    assert td["next", "speed_free"].shape == (2, 3, 1)
+    assert td["next", "speed_free"][:, 0, 0].tolist() == env.batch.external_throttle
+    assert "speed_free" not in SolarUAVAttitudeEnv(1, TaskConfig()).observation_spec

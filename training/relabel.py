@@ -17,6 +17,8 @@ integral is S - g W with S and W independent of the goal, so it changes by (g - 
 (``task.TRIM_SIZE``) are left as they are: they are part of the aircraft's state, though under the
 new goal they would have been integrated differently (a small bias, slow as the trims are). Terminated
 transitions keep their goal: their reward is the episode's last and their state may not be finite.
+So do speed-free transitions (``("next", "speed_free")``, where a speed hold flew the throttle): their
+EAS goal is the measured EAS and their reward has no airspeed term.
 """
 
 from __future__ import annotations
@@ -72,6 +74,8 @@ def relabel_goals(batch: TensorDictBase, fraction: float, spread: float, generat
     device = batch["observation"].device
     chosen = torch.rand(n, generator=generator) < fraction
     chosen &= ~batch["next", "terminated"].reshape(n).cpu()
+    if ("next", "speed_free") in batch.keys(include_nested=True):
+        chosen &= ~batch["next", "speed_free"].reshape(n).cpu()
     index = chosen.nonzero().squeeze(-1).to(device)
     if index.numel() == 0:
         return batch

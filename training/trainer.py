@@ -41,7 +41,8 @@ CRITIC_STATE_KEYS = ("state", ("next", "state"))  # stored too where the critics
 
 def stored_keys(config: TrainConfig) -> tuple:
     """What the replay buffer keeps of each transition."""
-    return STORED_KEYS + (CRITIC_STATE_KEYS if config.network.critic == "state" else ())
+    return (STORED_KEYS + (CRITIC_STATE_KEYS if config.network.critic == "state" else ())
+            + ((("next", "speed_free"),) if config.env.external_throttle > 0.0 else ()))
 
 
 CSV_FIELDS = ("frames", "updates", "wall_s", "env_steps_per_s", "episodes", "episode_return", "episode_return_norm",
