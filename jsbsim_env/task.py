@@ -319,9 +319,9 @@ class AttitudeTaskBatch:
             external = self.external_throttle[i]
             if external:
                 # The speed hold reads the measurement the policy acted on and flies the real goal.
-                measured = [x + e for x, e in zip(self.states[i], self.noise[i])]
-                command[3] = self._speed_holds[i].update(core.setup.control_interval_s, measured,
-                                                         self._goal_lists[i])[3]
+                s, e = self.states[i], self.noise[i]
+                command[3] = self._speed_holds[i].throttle(core.setup.control_interval_s, s[0] + e[0],
+                                                           s[EAS_INDEX] + e[EAS_INDEX], self._goal_lists[i][2])
             core.fly(command)
             self.states[i] = state = core.last_true_state = core.true_state()
             code = codes[i] = envelope_code(state, core.height_above_ground_m(), envelope)

@@ -50,3 +50,17 @@ def test_speed_hold_episodes_are_speed_free_for_the_policy():
     assert td["next", "speed_free"].shape == (2, 3, 1)
     assert td["next", "speed_free"][:, 0, 0].tolist() == env.batch.external_throttle
     assert "speed_free" not in SolarUAVAttitudeEnv(1, TaskConfig()).observation_spec
+
+
+def test_speed_hold_is_the_pid_airspeed_loop():
+    """``throttle()`` (the speed hold) gives the PID's throttle, integrator and anti-windup included."""
+    from jsbsim_env.controllers.pid import PIDAttitudeController
+
+    rng = np.random.default_rng(0)
+    full, hold = PIDAttitudeController(), PIDAttitudeController()
+    for _ in range(300):
+        m = np.zeros(13)
+        m[0], m[6] = rng.uniform(0.0, 20_000.0), rng.uniform(6.0, 14.0)
+        goal = np.array([0.0, 0.0, rng.uniform(8.0, 12.0)])
+        assert hold.throttle(0.04, m[0], m[6], goal[2]) == full.update(0.04, m, goal)[3]
+    assert hold.i_throttle == full.i_throttle != 0.0

@@ -142,8 +142,7 @@ class PIDAttitudeController:
         aileron = q_s * (g.k_roll * e_roll + g.k_p * p) + self.i_roll_deg
         elevator = g.elevator_trim_deg + q_s * (g.k_pitch * e_pitch + g.k_q * q) + self.i_pitch_deg
         rudder = q_s * (g.k_r * washed + g.k_beta * beta)
-        throttle = g.throttle_trim - g.k_eas * e_eas + self.i_throttle
-        command = np.array([aileron, elevator, rudder, throttle])
+        command = np.array([aileron, elevator, rudder, self._speed_loop(dt_s, g, e_eas)])
         clipped = np.clip(command, COMMAND_LOW, COMMAND_HIGH)
 
         # Integrate unless the actuator is saturated in the direction the integral would push it.
@@ -151,9 +150,20 @@ class PIDAttitudeController:
         self.i_roll_deg = _integrate(self.i_roll_deg, q_s * g.k_roll_i * e_roll * dt_s, command[0], clipped[0], lim)
         self.i_pitch_deg = _integrate(self.i_pitch_deg, q_s * g.k_pitch_i * e_pitch * dt_s, command[1], clipped[1],
                                       lim)
-        self.i_throttle = _integrate(self.i_throttle, -g.k_eas_i * e_eas * dt_s, command[3], clipped[3],
-                                     THROTTLE_INTEGRATOR_LIMIT)
         self.last_command = clipped
+        return clipped
+
+    def throttle(self, dt_s: float, altitude_m: float, eas_mps: float, eas_goal_mps: float) -> float:
+        """The airspeed loop alone (a speed hold): the throttle for the measured and demanded EAS,
+        advancing only its integrator. Inputs are trusted (the training hot path)."""
+        return self._speed_loop(dt_s, self.schedule.at(altitude_m), eas_mps - eas_goal_mps)
+
+    def _speed_loop(self, dt_s: float, g: DesignPoint, e_eas: float) -> float:
+        """Clipped throttle for the EAS error (measured minus demanded); integrates with anti-windup."""
+        raw = g.throttle_trim - g.k_eas * e_eas + self.i_throttle
+        clipped = min(max(raw, float(COMMAND_LOW[3])), float(COMMAND_HIGH[3]))
+        self.i_throttle = _integrate(self.i_throttle, -g.k_eas_i * e_eas * dt_s, raw, clipped,
+                                     THROTTLE_INTEGRATOR_LIMIT)
         return clipped
 
 
