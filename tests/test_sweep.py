@@ -9,6 +9,8 @@ import pytest
 
 from jsbsim_env.core import CoreConfig
 from training.sweep import (
+    AXES,
+    AXIS_UNITS,
     SWEEP_EPISODE_SEED,
     breaking_points,
     condition_config,
@@ -153,3 +155,7 @@ def test_several_seeds_train_as_their_own_runs_and_resume(backend, tmp_path, cap
     assert script.main([*args[:-1], "--collector.total_frames", "128", "--json"]) == 0
     again = json.loads(capsys.readouterr().out)
     assert all(r["frames"] == 128 for r in again["runs"])
+
+
+def test_every_axis_has_its_unit():
+    assert list(AXIS_UNITS) == list(AXES)
