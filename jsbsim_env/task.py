@@ -56,8 +56,9 @@ INTEGRAL_GAIN = 10.0
 INTEGRAL_SIZE = len(INTEGRAL_COLUMNS) + 1
 
 # Integral trim (``TaskConfig.integral_trim`` > 0), beyond the paper: the aileron and elevator
-# trims of ``controllers.integral_trim.TrimIntegrator``, added to the policy's commands and shown
-# to it (scaled as the surfaces) after the last action, before any error integrals and the goals.
+# trims of ``controllers.integral_trim.TrimIntegrator``, added to the policy's commands and, unless
+# ``TaskConfig.observe_trims`` is off, shown to it (scaled as the surfaces) after the last action,
+# before any error integrals and the goals.
 TRIM_SIZE = 2
 TRIM_SCALE_DEG = 30.0
 
@@ -149,6 +150,9 @@ class TaskConfig:
     observation, before the goals; 0 keeps the 20 values of the table above.
     ``integral_trim`` f > 0 adds integral trim at f times the PID's integral gains to the policy's
     aileron and elevator commands and shows the two trims in the observation (``TRIM_SIZE``).
+    ``observe_trims`` False hides the trims from the policy: it cannot then learn to cancel them, so
+    they settle where they remove its steady error rather than drifting to their limits against an
+    opposite bias of the policy (``docs/training.md``).
     ``sideslip_weight`` multiplies Eq. 22's sideslip penalty and its cap (1: the paper's reward).
     ``external_throttle`` is the share of episodes in which a speed hold (the PID's airspeed loop)
     flies the throttle instead of the policy, as TECS does on a route. Those episodes are speed-free
@@ -161,6 +165,7 @@ class TaskConfig:
     goal_hold_s: tuple[float, float] = (3.0, 10.0)  # each channel holds its goal this long, drawn uniformly
     error_integral_decay: float = 0.0  # per control step; 0.99 forgets with a time constant of 100 steps
     integral_trim: float = 0.0  # fraction of the PID's integral gains; 0: none, as the paper
+    observe_trims: bool = True  # the trims in the observation (with integral trim only)
     sideslip_weight: float = 1.0
     external_throttle: float = 0.0  # share of episodes; 0: the policy always flies the throttle, as the paper
 
@@ -176,16 +181,17 @@ class TaskConfig:
 
     @property
     def observation_size(self) -> int:
-        return observation_size(self.error_integral_decay, self.integral_trim)
+        return observation_size(self.error_integral_decay, self.integral_trim, self.observe_trims)
 
     @property
     def critic_state_size(self) -> int:
         return CRITIC_STATE_BASE + self.observation_size - OBS_SIZE
 
 
-def observation_size(error_integral_decay: float, integral_trim: float = 0.0) -> int:
-    """Values in one observation: 20, 5 more with error integrals, 2 more with integral trim."""
-    return OBS_SIZE + (INTEGRAL_SIZE if error_integral_decay > 0.0 else 0) + (TRIM_SIZE if integral_trim > 0.0 else 0)
+def observation_size(error_integral_decay: float, integral_trim: float = 0.0, observe_trims: bool = True) -> int:
+    """Values in one observation: 20, 5 more with error integrals, 2 more with observed integral trim."""
+    trims = TRIM_SIZE if integral_trim > 0.0 and observe_trims else 0
+    return OBS_SIZE + (INTEGRAL_SIZE if error_integral_decay > 0.0 else 0) + trims
 
 
 def insert_trims(scaled: list[float], trim_deg: list[float]) -> list[float]:
@@ -256,6 +262,7 @@ class AttitudeTaskBatch:
         trim, self._external_share = self.config.integral_trim, self.config.external_throttle
         schedule = GainSchedule() if trim > 0.0 or self._external_share > 0.0 else None  # read once for all
         self._trims = [TrimIntegrator(trim, schedule) for _ in range(n)] if trim > 0.0 else None
+        self._observe_trims = self._trims is not None and self.config.observe_trims
         self._speed_holds = [PIDAttitudeController(schedule) for _ in range(n)] if self._external_share > 0.0 else None
         self._sideslip_weight = self.config.sideslip_weight
         self.external_throttle = [False] * n  # whether the speed hold flies each aircraft's throttle
@@ -377,7 +384,7 @@ class AttitudeTaskBatch:
         if self.external_throttle[i]:  # speed-free: the EAS goal is the measured EAS
             raw[-1] = self.states[i][EAS_INDEX] + self.noise[i][EAS_INDEX]
         obs = [(x + n - o) * k for x, n, o, k in zip(raw, noise, self._obs_offset, self._obs_inv_scale)]
-        if self._trims is not None:
+        if self._observe_trims:
             obs = insert_trims(obs, self._trims[i].trim_deg)
         if self._integrals is not None:
             obs = self._integrals[i].extend(obs)

@@ -140,25 +140,29 @@ def test_ship_policy_needs_the_runs_first_command_and_commit(policy_file, tmp_pa
     assert [p.stat().st_mtime_ns for p in sorted(Path(script).parents[1].glob("training/shipped/*"))] == shipped
 
 
-@pytest.mark.parametrize(("decay", "trim"), [(0.0, 0.0), (0.99, 0.0), (0.0, 0.5), (0.99, 0.5)])
-def test_runtime_builds_the_environments_observation(tmp_path, decay, trim):
-    """Flying from measurements (with its own last action, and error integrals and integral trim
-    where the policy has them) gives the same commands as flying from the environment's observations."""
+@pytest.mark.parametrize(("decay", "trim", "observe"), [(0.0, 0.0, True), (0.99, 0.0, True), (0.0, 0.5, True),
+                                                       (0.99, 0.5, True), (0.99, 0.5, False)])
+def test_runtime_builds_the_environments_observation(tmp_path, decay, trim, observe):
+    """Flying from measurements (with its own last action, and error integrals and integral trim, seen
+    or hidden, where the policy has them) gives the same commands as flying from the environment's
+    observations."""
     c = TrainConfig(seed=2)
     c.env.num_envs, c.buffer.capacity, c.log.progress = 1, 10, False
-    c.env.error_integral_decay, c.env.integral_trim = decay, trim
+    c.env.error_integral_decay, c.env.integral_trim, c.env.observe_trims = decay, trim, observe
     path = tmp_path / "policy.pt"
     Trainer(c, tmp_path / "run").save_policy(path, {"return_norm": 0.0})
     from_env, from_measurement = PolicyRuntime(path, backend="torch"), PolicyRuntime(path, backend="torch")
-    task = AttitudeTask(TaskConfig(error_integral_decay=decay, integral_trim=trim))
+    task = AttitudeTask(TaskConfig(error_integral_decay=decay, integral_trim=trim, observe_trims=observe))
     assert from_env.observation_size == task.config.observation_size
     obs, _ = task.reset(4)
     trims_seen = []
     for _ in range(40):
         a_env = np.clip(from_env.act_scaled(obs).astype(np.float64), -1, 1)
         command_env = action_to_command(a_env)
-        if trim > 0.0:  # the environment adds the trims it shows in the observation
-            trims_seen.append(obs[OBS_SIZE - 3:OBS_SIZE - 1] * TRIM_SCALE_DEG)
+        if trim > 0.0:  # the environment adds its trims (those it shows in the observation, where it does)
+            trims_seen.append(np.array(task.batch._trims[0].trim_deg))
+            if observe:
+                np.testing.assert_allclose(obs[OBS_SIZE - 3:OBS_SIZE - 1] * TRIM_SCALE_DEG, trims_seen[-1], atol=1e-4)
             command_env[:2] += trims_seen[-1]
         dt_s = task.core.setup.control_interval_s
         command = from_measurement.act(task.batch.measurements()[0], task.batch.goals[0], dt_s)

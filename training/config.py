@@ -33,6 +33,8 @@ class EnvSettings:
     integral_trim: float = _f(0.0, "integral trim on aileron and elevator at this fraction of the PID's integral "
                                    "gains, learned beside and observed by the policy (jsbsim_env.controllers."
                                    "integral_trim; 0: none, as the paper)")
+    observe_trims: bool = _f(True, "show the integral trims to the policy (false: hidden, so that it cannot learn "
+                                   "to cancel them)")
     sideslip_weight: float = _f(1.0, "training reward's sideslip penalty and its cap times this (1: SPEC Eq. 22); "
                                      "evaluations keep Eq. 22")
     external_throttle: float = _f(0.0, "share of training episodes whose throttle a speed hold flies instead of the "

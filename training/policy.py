@@ -59,8 +59,8 @@ class DeterministicActor(nn.Module):
 
 def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
     """The deterministic actor and the metadata saved with it (``Trainer.save_policy``); the metadata's
-    ``error_integral_decay`` and ``integral_trim`` (0 for files from before them) set the observation
-    layout."""
+    ``error_integral_decay``, ``integral_trim`` (0 for files from before them) and ``observe_trims``
+    (True before it) set the observation layout."""
     path = Path(path)
     if not path.is_file():
         raise PolicyFileError(f"no policy file at {path}")
@@ -71,7 +71,8 @@ def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
             raise PolicyFileError(f"{path} holds NaN or infinite weights ({', '.join(bad[:3])}); it cannot fly")
         decay = float(data.get("error_integral_decay", 0.0))
         trim = float(data.get("integral_trim", 0.0))
-        expected = observation_size(decay, trim)
+        observe_trims = bool(data.get("observe_trims", True))
+        expected = observation_size(decay, trim, observe_trims)
         prefix = "module.0.module."
         state = {k[len(prefix):]: v for k, v in data["actor"].items() if k.startswith(prefix)}
         inputs = state["encoder.lstm.weight_ih_l0"].shape[1]
@@ -87,7 +88,7 @@ def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
         raise PolicyFileError(f"{path} is not a usable policy file: {err}") from err
     actor = DeterministicActor(net).eval()
     meta = {k: v for k, v in data.items() if k != "actor"}
-    meta["error_integral_decay"], meta["integral_trim"] = decay, trim
+    meta["error_integral_decay"], meta["integral_trim"], meta["observe_trims"] = decay, trim, observe_trims
     return actor, meta
 
 
@@ -155,7 +156,8 @@ class PolicyRuntime:
         self.window = int(self.meta.get("window", 8))
         self.backend = backend
         decay, trim = self.meta["error_integral_decay"], self.meta["integral_trim"]
-        self.observation_size = observation_size(decay, trim)
+        self._observe_trims = self.meta["observe_trims"]
+        self.observation_size = observation_size(decay, trim, self._observe_trims)
         self._integrals = ErrorIntegrals(decay) if decay > 0.0 else None
         self._trim = TrimIntegrator(trim) if trim > 0.0 else None
         # The window, oldest row first, shifted in place each step; empty until the episode's first push.
@@ -233,7 +235,8 @@ class PolicyRuntime:
                     raise ValueError("this policy was trained with integral trim: give act() the control interval dt_s")
                 if not first:  # as in training: the integrators start from zero with the episode
                     self._trim.integrate(dt_s, measurement, goal)
-                row = insert_trims(row, self._trim.trim_deg)
+                if self._observe_trims:
+                    row = insert_trims(row, self._trim.trim_deg)
             if self._integrals is not None:
                 row = self._integrals.extend(row)
             obs = np.asarray(row, dtype=np.float32)

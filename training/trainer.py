@@ -93,7 +93,8 @@ class Trainer:
         self.device = torch.device(c.device)
         core = CoreConfig() if c.env.disturbances else CoreConfig.ideal()
         self.task_config = TaskConfig(core=core, error_integral_decay=c.env.error_integral_decay,
-                                      integral_trim=c.env.integral_trim, sideslip_weight=c.env.sideslip_weight,
+                                      integral_trim=c.env.integral_trim, observe_trims=c.env.observe_trims,
+                                      sideslip_weight=c.env.sideslip_weight,
                                       external_throttle=c.env.external_throttle)
         self.env = make_env(c.env.num_envs, self.task_config, seed=c.seed, window=c.env.window,
                             critic_state=c.network.critic == "state")
@@ -184,6 +185,7 @@ class Trainer:
             "window": self.config.env.window,
             "error_integral_decay": self.config.env.error_integral_decay,
             "integral_trim": self.config.env.integral_trim,
+            "observe_trims": self.config.env.observe_trims,
             "frames": self.counters.frames,
             "seed": self.config.seed,
             "evaluation": evaluation,
