@@ -64,13 +64,14 @@ def test_runtime_window_matches_catframes_and_backends_agree(policy_file, tmp_pa
     for k in range(10):
         a, b = runtime_onnx.act_scaled(obs[k]), runtime_torch.act_scaled(obs[k])
         np.testing.assert_allclose(a, b, atol=1e-5)
-    command = runtime_torch.act(np.zeros(13), np.array([0.0, 0.0, 10.0]))
+    command = runtime_torch.act(np.zeros(13), np.array([0.0, 0.0, 10.0]), 0.04)
     assert command.shape == (4,) and -30 <= command[0] <= 30 and 0 <= command[3] <= 1
     runtime_torch.reset()
     a = runtime_torch.action(runtime_torch.push(np.zeros(OBS_SIZE)))
     runtime_torch.reset()
     np.testing.assert_allclose(runtime_torch.act(np.array([10000.0, 0, 0, 0, 0, 0, 10.0, 0, 0, 0, 0, 0, 0.5]),
-                                                 np.array([0.0, 0.0, 10.0])), action_to_command(a), atol=1e-6)
+                                                 np.array([0.0, 0.0, 10.0]), 0.04),
+                               action_to_command(a), atol=1e-6)  # the integral trims start at zero
 
 
 def test_a_stale_onnx_export_beside_a_rewritten_policy_is_not_used(policy_file, tmp_path):

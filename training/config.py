@@ -30,13 +30,13 @@ class EnvSettings:
     disturbances: bool = _f(True, "delay, noise, random interval, randomisation and turbulence (SPEC training setting)")
     error_integral_decay: float = _f(0.0, "per-step decay of the error integrals added to the observation "
                                           "(jsbsim_env.task.ErrorIntegrals; 0: none, as the paper)")
-    integral_trim: float = _f(0.0, "integral trim on aileron and elevator at this fraction of the PID's integral "
-                                   "gains, learned beside and observed by the policy (jsbsim_env.controllers."
-                                   "integral_trim; 0: none, as the paper)")
-    observe_trims: bool = _f(True, "show the integral trims to the policy (false: hidden, so that it cannot learn "
-                                   "to cancel them)")
-    sideslip_weight: float = _f(1.0, "training reward's sideslip penalty and its cap times this (1: SPEC Eq. 22); "
-                                     "evaluations keep Eq. 22")
+    integral_trim: float = _f(0.5, "integral trim on aileron and elevator at this fraction of the PID's integral "
+                                   "gains, learned beside the policy (jsbsim_env.controllers.integral_trim; 0: none, "
+                                   "as the paper). Removes the policy's steady attitude error (docs/training.md)")
+    observe_trims: bool = _f(False, "show the integral trims to the policy (a policy that sees them learns to "
+                                    "cancel them and they drift to their limits, docs/training.md)")
+    sideslip_weight: float = _f(3.0, "training reward's sideslip penalty and its cap times this (1: SPEC Eq. 22; "
+                                     "3 halved the sideslip, docs/training.md); evaluations keep Eq. 22")
     external_throttle: float = _f(0.0, "share of training episodes whose throttle a speed hold flies instead of the "
                                        "policy, as TECS does on a route (0: none, as the paper)")
 
