@@ -156,7 +156,7 @@ class PolicyRuntime:
         self.window = int(self.meta.get("window", 8))
         self.backend = backend
         decay, trim = self.meta["error_integral_decay"], self.meta["integral_trim"]
-        self._observe_trims = self.meta["observe_trims"]
+        self._observe_trims = trim > 0.0 and self.meta["observe_trims"]
         self.observation_size = observation_size(decay, trim, self._observe_trims)
         self._integrals = ErrorIntegrals(decay) if decay > 0.0 else None
         self._trim = TrimIntegrator(trim) if trim > 0.0 else None
@@ -228,15 +228,15 @@ class PolicyRuntime:
         if first:
             self._last_action = initial_last_action(measurement)
         obs = scale_observation(measurement, self._last_action, np.asarray(goal))
-        if self._trim is not None or self._integrals is not None:  # the layout of AttitudeTaskBatch._observation
+        if self._trim is not None:
+            if dt_s is None:
+                raise ValueError("this policy was trained with integral trim: give act() the control interval dt_s")
+            if not first:  # as in training: the integrators start from zero with the episode
+                self._trim.integrate(dt_s, measurement, goal)
+        if self._observe_trims or self._integrals is not None:  # the layout of AttitudeTaskBatch._observation
             row = obs.tolist()
-            if self._trim is not None:
-                if dt_s is None:
-                    raise ValueError("this policy was trained with integral trim: give act() the control interval dt_s")
-                if not first:  # as in training: the integrators start from zero with the episode
-                    self._trim.integrate(dt_s, measurement, goal)
-                if self._observe_trims:
-                    row = insert_trims(row, self._trim.trim_deg)
+            if self._observe_trims:
+                row = insert_trims(row, self._trim.trim_deg)
             if self._integrals is not None:
                 row = self._integrals.extend(row)
             obs = np.asarray(row, dtype=np.float32)
