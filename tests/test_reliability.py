@@ -131,7 +131,7 @@ def test_evaluate_json_has_null_and_the_reason_where_a_metric_is_not_finite():
 def test_running_a_policy_writes_nothing_beside_the_users_file(tiny_run, tmp_path):
     path = _copy(tiny_run / "best_policy.pt", tmp_path)
     runtime = PolicyRuntime(path, backend="onnx")
-    runtime.act(np.zeros(13) + [1000, 0, 0, 0, 0, 0, 10, 0, 0, 0, 0, 0, 0.4], np.array([0.0, 0.0, 10.0]))
+    runtime.act(np.zeros(13) + [1000, 0, 0, 0, 0, 0, 10, 0, 0, 0, 0, 0, 0.4], np.array([0.0, 0.0, 10.0]), 0.04)
     assert sorted(p.name for p in tmp_path.iterdir()) == [path.name]
 
 
