@@ -70,3 +70,15 @@ def test_it_removes_a_controllers_steady_errors_on_the_route():
     trimmed = steady_state_errors(fly_route(IntegralTrim(_ProportionalOnly(), 0.5), config), 60.0)
     assert alone["pitch_deg"] > 0.2 and trimmed["pitch_deg"] < 0.5 * alone["pitch_deg"]
     assert alone["roll_deg"] > 0.1 and trimmed["roll_deg"] < 0.5 * alone["roll_deg"]
+
+
+def test_a_policy_with_built_in_trim_refuses_a_second_one():
+    class TrainedWithTrim:
+        def __init__(self):
+            self.meta = {"integral_trim": 0.5}
+
+        def reset(self):
+            pass
+
+    with pytest.raises(ValueError, match="trained with integral trim"):
+        IntegralTrim(TrainedWithTrim(), 0.5)

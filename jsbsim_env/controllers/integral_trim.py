@@ -88,6 +88,10 @@ class IntegralTrim:
     shares the ``AttitudeController`` interface."""
 
     def __init__(self, controller: AttitudeController, fraction: float = 0.5, schedule: GainSchedule | None = None):
+        built_in = getattr(controller, "meta", {}).get("integral_trim", 0.0)
+        if built_in:  # two integrators on the same error would fight over the same trim
+            raise ValueError(f"this policy was trained with integral trim ({built_in:g}) and applies it itself: "
+                             "fly it without --integral-trim")
         self.controller = controller
         self.integrator = TrimIntegrator(fraction, schedule)
         self.fraction = self.integrator.fraction
