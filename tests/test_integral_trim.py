@@ -82,3 +82,14 @@ def test_a_policy_with_built_in_trim_refuses_a_second_one():
 
     with pytest.raises(ValueError, match="trained with integral trim"):
         IntegralTrim(TrainedWithTrim(), 0.5)
+
+
+def test_trim_gains_follow_the_pid_schedule_at_every_altitude():
+    from jsbsim_env.controllers.integral_trim import TrimIntegrator
+    from jsbsim_env.controllers.pid import GainSchedule
+
+    schedule = GainSchedule()
+    trim = TrimIntegrator(0.5, schedule)
+    for altitude_m in (-100.0, 0.0, 499.0, 1000.0, 7_321.5, 20_000.0, 25_000.0, *schedule.altitudes_m):
+        point = schedule.at(altitude_m)
+        assert trim._gains_at(float(altitude_m)) == pytest.approx((point.k_roll_i, point.k_pitch_i), rel=1e-12)
