@@ -1,6 +1,9 @@
 """Integral trim around an attitude controller: it removes a steady error, stops integrating
 against a saturated surface, and refuses a nonsensical gain."""
 
+import math
+from dataclasses import astuple
+
 import numpy as np
 import pytest
 
@@ -84,12 +87,16 @@ def test_a_policy_with_built_in_trim_refuses_a_second_one():
         IntegralTrim(TrainedWithTrim(), 0.5)
 
 
-def test_trim_gains_follow_the_pid_schedule_at_every_altitude():
-    from jsbsim_env.controllers.integral_trim import TrimIntegrator
+def test_gain_schedule_interpolates_as_np_interp_to_the_bit():
+    """The schedule the PID, the speed hold and the integral trims read every step gives np.interp's
+    values exactly, between, at and beyond the design points."""
     from jsbsim_env.controllers.pid import GainSchedule
 
     schedule = GainSchedule()
-    trim = TrimIntegrator(0.5, schedule)
-    for altitude_m in (-100.0, 0.0, 499.0, 1000.0, 7_321.5, 20_000.0, 25_000.0, *schedule.altitudes_m):
-        point = schedule.at(altitude_m)
-        assert trim._gains_at(float(altitude_m)) == pytest.approx((point.k_roll_i, point.k_pitch_i), rel=1e-12)
+    altitudes = [-100.0, 0.0, 499.0, 1000.0, 7_321.5, 20_000.0, 25_000.0, *schedule.altitudes_m.tolist(),
+                 *np.random.default_rng(0).uniform(0.0, 21_000.0, 200).tolist()]
+    for altitude_m in altitudes:
+        expected = [float(np.interp(altitude_m, schedule.altitudes_m, col)) for col in schedule.values.T]
+        assert list(astuple(schedule.at(altitude_m))) == expected
+        assert schedule.interpolate(altitude_m, (3, 0)) == [expected[3], expected[0]]
+    assert all(math.isnan(g) for g in astuple(schedule.at(math.nan)))

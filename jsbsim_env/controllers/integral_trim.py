@@ -21,7 +21,6 @@ Two ways to use them: ``IntegralTrim`` wraps any controller after the fact; a po
 
 from __future__ import annotations
 
-from bisect import bisect_right
 from dataclasses import fields
 
 import numpy as np
@@ -49,10 +48,8 @@ class TrimIntegrator:
         self.fraction = float(fraction)
         schedule = schedule or GainSchedule()
         names = [f.name for f in fields(DesignPoint)]  # the order of the schedule's columns
-        # Plain lists: this runs every control step, in training and in flight, on scalars.
-        self._altitudes_m = [float(a) for a in schedule.altitudes_m]
-        self._k_roll_i = schedule.values[:, names.index("k_roll_i")].tolist()
-        self._k_pitch_i = schedule.values[:, names.index("k_pitch_i")].tolist()
+        self._schedule = schedule
+        self._gain_columns = (names.index("k_roll_i"), names.index("k_pitch_i"))
         self.reset()
 
     def reset(self) -> None:
@@ -65,7 +62,7 @@ class TrimIntegrator:
         altitude, eas = float(measurement[0]), float(measurement[6])
         q_s = (DESIGN_EAS_MPS / max(eas, MIN_EAS_FOR_SCALING_MPS)) ** 2
         k = self.fraction * q_s * dt_s
-        k_roll_i, k_pitch_i = self._gains_at(altitude)
+        k_roll_i, k_pitch_i = self._schedule.interpolate(altitude, self._gain_columns)
         increments = (k * k_roll_i * (float(measurement[1]) - float(goal[0])),
                       k * k_pitch_i * (float(measurement[2]) - float(goal[1])))
         lim = SURFACE_INTEGRATOR_LIMIT_DEG
@@ -74,19 +71,6 @@ class TrimIntegrator:
                 continue  # anti-windup: the surface is already saturated that way
             self.trim_deg[j] = min(max(self.trim_deg[j] + inc, -lim), lim)
         return self.trim_deg
-
-    def _gains_at(self, altitude_m: float) -> tuple[float, float]:
-        """The integral gains at this altitude, linear between the design points and held beyond
-        them (as ``np.interp``, a few times faster on one scalar)."""
-        alts = self._altitudes_m
-        if altitude_m <= alts[0]:
-            return self._k_roll_i[0], self._k_pitch_i[0]
-        if altitude_m >= alts[-1]:
-            return self._k_roll_i[-1], self._k_pitch_i[-1]
-        j = bisect_right(alts, altitude_m)
-        w = (altitude_m - alts[j - 1]) / (alts[j] - alts[j - 1])
-        return (self._k_roll_i[j - 1] + w * (self._k_roll_i[j] - self._k_roll_i[j - 1]),
-                self._k_pitch_i[j - 1] + w * (self._k_pitch_i[j] - self._k_pitch_i[j - 1]))
 
     def apply(self, command) -> list[float]:
         """``command`` (aileron, elevator, rudder in deg, throttle) with the trims added and the
