@@ -116,6 +116,7 @@ REWARD_TERMS = ("penalty_roll", "penalty_pitch", "penalty_airspeed", "penalty_be
 # The state elements the reward depends on (``core.STATE_NAMES`` order): roll, pitch, V_eas, sideslip.
 ACHIEVED_INDEX = (1, 2, 6, 8)
 EAS_INDEX = ACHIEVED_INDEX[2]
+AILERON_INDEX = 9  # aileron then elevator position (rad) in ``core.STATE_NAMES``
 # Errors at which each penalty of Eq. 22 saturates (rad, rad, m/s): beyond them a goal error
 # no longer changes the reward.
 PENALTY_SATURATION = (math.radians(1.5), math.radians(1.8), 1.5)
@@ -153,6 +154,10 @@ class TaskConfig:
     ``observe_trims`` False hides the trims from the policy: it cannot then learn to cancel them, so
     they settle where they remove its steady error rather than drifting to their limits against an
     opposite bias of the policy (``docs/training.md``).
+    ``trims_in_surfaces`` False takes the trims off the measured aileron and elevator positions in
+    the observation: the policy sees the part of each surface it commanded. With the trims in them,
+    hidden trims still show as surfaces that stand away from the policy's last action, and a policy
+    learns to cancel them through that.
     ``sideslip_weight`` multiplies Eq. 22's sideslip penalty and its cap (1: the paper's reward).
     ``external_throttle`` is the share of episodes in which a speed hold (the PID's airspeed loop)
     flies the throttle instead of the policy, as TECS does on a route. Those episodes are speed-free
@@ -166,6 +171,7 @@ class TaskConfig:
     error_integral_decay: float = 0.0  # per control step; 0.99 forgets with a time constant of 100 steps
     integral_trim: float = 0.0  # fraction of the PID's integral gains; 0: none, as the paper
     observe_trims: bool = True  # the trims in the observation (with integral trim only)
+    trims_in_surfaces: bool = True  # the observed surface positions include the trims, as measured
     sideslip_weight: float = 1.0
     external_throttle: float = 0.0  # share of episodes; 0: the policy always flies the throttle, as the paper
 
@@ -192,6 +198,15 @@ def observation_size(error_integral_decay: float, integral_trim: float = 0.0, ob
     """Values in one observation: 20, 5 more with error integrals, 2 more with observed integral trim."""
     trims = TRIM_SIZE if integral_trim > 0.0 and observe_trims else 0
     return OBS_SIZE + (INTEGRAL_SIZE if error_integral_decay > 0.0 else 0) + trims
+
+
+def without_trims(row: list[float], trim_deg: list[float]) -> list[float]:
+    """A row that starts with a state (``core.STATE_NAMES``) with the trims (deg) taken off its
+    aileron and elevator positions (rad): the part of each surface the policy commanded."""
+    out = list(row)
+    out[AILERON_INDEX] -= math.radians(trim_deg[0])
+    out[AILERON_INDEX + 1] -= math.radians(trim_deg[1])
+    return out
 
 
 def insert_trims(scaled: list[float], trim_deg: list[float]) -> list[float]:
@@ -263,6 +278,7 @@ class AttitudeTaskBatch:
         schedule = GainSchedule() if trim > 0.0 or self._external_share > 0.0 else None  # read once for all
         self._trims = [TrimIntegrator(trim, schedule) for _ in range(n)] if trim > 0.0 else None
         self._observe_trims = self._trims is not None and self.config.observe_trims
+        self._trim_free_surfaces = self._trims is not None and not self.config.trims_in_surfaces
         self._speed_holds = [PIDAttitudeController(schedule) for _ in range(n)] if self._external_share > 0.0 else None
         self._sideslip_weight = self.config.sideslip_weight
         self.external_throttle = [False] * n  # whether the speed hold flies each aircraft's throttle
@@ -380,6 +396,8 @@ class AttitudeTaskBatch:
         """Scaled network observation of aircraft ``i`` (measured state, last action, error integrals
         where configured, goal), as a list; once per control step (it advances the integrals)."""
         raw = self.states[i] + self.last_actions[i] + self._goal_lists[i]
+        if self._trim_free_surfaces:
+            raw = without_trims(raw, self._trims[i].trim_deg)
         noise = self.noise[i] + _NO_EXTRA_NOISE
         if self.external_throttle[i]:  # speed-free: the EAS goal is the measured EAS
             raw[-1] = self.states[i][EAS_INDEX] + self.noise[i][EAS_INDEX]

@@ -28,6 +28,7 @@ from jsbsim_env.task import (
     insert_trims,
     observation_size,
     scale_observation,
+    without_trims,
 )
 from training.checkpoint import checked_load, non_finite_entries
 from training.networks import ActorNet
@@ -59,8 +60,8 @@ class DeterministicActor(nn.Module):
 
 def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
     """The deterministic actor and the metadata saved with it (``Trainer.save_policy``); the metadata's
-    ``error_integral_decay``, ``integral_trim`` (0 for files from before them) and ``observe_trims``
-    (True before it) set the observation layout."""
+    ``error_integral_decay``, ``integral_trim`` (0 for files from before them), ``observe_trims`` and
+    ``trims_in_surfaces`` (True before them) set the observation layout."""
     path = Path(path)
     if not path.is_file():
         raise PolicyFileError(f"no policy file at {path}")
@@ -72,6 +73,7 @@ def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
         decay = float(data.get("error_integral_decay", 0.0))
         trim = float(data.get("integral_trim", 0.0))
         observe_trims = bool(data.get("observe_trims", True))
+        trims_in_surfaces = bool(data.get("trims_in_surfaces", True))
         expected = observation_size(decay, trim, observe_trims)
         prefix = "module.0.module."
         state = {k[len(prefix):]: v for k, v in data["actor"].items() if k.startswith(prefix)}
@@ -89,6 +91,7 @@ def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
     actor = DeterministicActor(net).eval()
     meta = {k: v for k, v in data.items() if k != "actor"}
     meta["error_integral_decay"], meta["integral_trim"], meta["observe_trims"] = decay, trim, observe_trims
+    meta["trims_in_surfaces"] = trims_in_surfaces
     return actor, meta
 
 
@@ -157,6 +160,7 @@ class PolicyRuntime:
         self.backend = backend
         decay, trim = self.meta["error_integral_decay"], self.meta["integral_trim"]
         self._observe_trims = trim > 0.0 and self.meta["observe_trims"]
+        self._trim_free_surfaces = trim > 0.0 and not self.meta["trims_in_surfaces"]
         self.observation_size = observation_size(decay, trim, self._observe_trims)
         self._integrals = ErrorIntegrals(decay) if decay > 0.0 else None
         self._trim = TrimIntegrator(trim) if trim > 0.0 else None
@@ -227,12 +231,13 @@ class PolicyRuntime:
         first = self._last_action is None
         if first:
             self._last_action = initial_last_action(measurement)
-        obs = scale_observation(measurement, self._last_action, np.asarray(goal))
         if self._trim is not None:
             if dt_s is None:
                 raise ValueError("this policy was trained with integral trim: give act() the control interval dt_s")
             if not first:  # as in training: the integrators start from zero with the episode
                 self._trim.integrate(dt_s, measurement, goal)
+        seen = without_trims(measurement.tolist(), self._trim.trim_deg) if self._trim_free_surfaces else measurement
+        obs = scale_observation(seen, self._last_action, np.asarray(goal))
         if self._observe_trims or self._integrals is not None:  # the layout of AttitudeTaskBatch._observation
             row = obs.tolist()
             if self._observe_trims:
