@@ -116,7 +116,7 @@ REWARD_TERMS = ("penalty_roll", "penalty_pitch", "penalty_airspeed", "penalty_be
 # The state elements the reward depends on (``core.STATE_NAMES`` order): roll, pitch, V_eas, sideslip.
 ACHIEVED_INDEX = (1, 2, 6, 8)
 EAS_INDEX = ACHIEVED_INDEX[2]
-AILERON_INDEX = 9  # aileron then elevator position (rad) in ``core.STATE_NAMES``
+AILERON_INDEX = 9  # aileron, elevator then rudder position (rad) in ``core.STATE_NAMES``
 # Errors at which each penalty of Eq. 22 saturates (rad, rad, m/s): beyond them a goal error
 # no longer changes the reward.
 PENALTY_SATURATION = (math.radians(1.5), math.radians(1.8), 1.5)
@@ -158,6 +158,8 @@ class TaskConfig:
     the observation: the policy sees the part of each surface it commanded. With the trims in them,
     hidden trims still show as surfaces that stand away from the policy's last action, and a policy
     learns to cancel them through that.
+    ``rudder_trim_s`` T > 0 adds a rudder trim on sideslip beside them, at the PID's sideslip gain
+    over T (``TrimIntegrator``); with hidden trims only.
     ``sideslip_weight`` multiplies Eq. 22's sideslip penalty and its cap (1: the paper's reward).
     ``external_throttle`` is the share of episodes in which a speed hold (the PID's airspeed loop)
     flies the throttle instead of the policy, as TECS does on a route. Those episodes are speed-free
@@ -172,6 +174,7 @@ class TaskConfig:
     integral_trim: float = 0.0  # fraction of the PID's integral gains; 0: none, as the paper
     observe_trims: bool = True  # the trims in the observation (with integral trim only)
     trims_in_surfaces: bool = True  # the observed surface positions include the trims, as measured
+    rudder_trim_s: float = 0.0  # time constant of a rudder trim on sideslip; 0: none
     sideslip_weight: float = 1.0
     external_throttle: float = 0.0  # share of episodes; 0: the policy always flies the throttle, as the paper
 
@@ -180,6 +183,9 @@ class TaskConfig:
             raise ValueError(f"error_integral_decay must lie in [0, 1), got {self.error_integral_decay}")
         if not 0.0 <= self.integral_trim <= 2.0:
             raise ValueError(f"integral_trim must lie in [0, 2], got {self.integral_trim}")
+        if self.rudder_trim_s and (not self.integral_trim or self.observe_trims):
+            raise ValueError("a rudder trim (rudder_trim_s > 0) needs integral trim (integral_trim > 0) with the "
+                             "trims hidden (observe_trims False): the observation has room for two trims")
         if not 0.0 <= self.sideslip_weight <= 10.0:
             raise ValueError(f"sideslip_weight must lie in [0, 10], got {self.sideslip_weight}")
         if not 0.0 <= self.external_throttle <= 1.0:
@@ -202,10 +208,11 @@ def observation_size(error_integral_decay: float, integral_trim: float = 0.0, ob
 
 def without_trims(row: list[float], trim_deg: list[float]) -> list[float]:
     """A row that starts with a state (``core.STATE_NAMES``) with the trims (deg) taken off its
-    aileron and elevator positions (rad): the part of each surface the policy commanded."""
+    aileron, elevator and, where trimmed, rudder positions (rad): the part of each surface the
+    policy commanded."""
     out = list(row)
-    out[AILERON_INDEX] -= math.radians(trim_deg[0])
-    out[AILERON_INDEX + 1] -= math.radians(trim_deg[1])
+    for j, t in enumerate(trim_deg):
+        out[AILERON_INDEX + j] -= math.radians(t)
     return out
 
 
@@ -276,7 +283,8 @@ class AttitudeTaskBatch:
         self._integrals = [ErrorIntegrals(decay) for _ in range(n)] if decay > 0.0 else None
         trim, self._external_share = self.config.integral_trim, self.config.external_throttle
         schedule = GainSchedule() if trim > 0.0 or self._external_share > 0.0 else None  # read once for all
-        self._trims = [TrimIntegrator(trim, schedule) for _ in range(n)] if trim > 0.0 else None
+        self._trims = [TrimIntegrator(trim, schedule, self.config.rudder_trim_s) for _ in range(n)] \
+            if trim > 0.0 else None
         self._observe_trims = self._trims is not None and self.config.observe_trims
         self._trim_free_surfaces = self._trims is not None and not self.config.trims_in_surfaces
         self._speed_holds = [PIDAttitudeController(schedule) for _ in range(n)] if self._external_share > 0.0 else None

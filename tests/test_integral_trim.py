@@ -75,6 +75,21 @@ def test_it_removes_a_controllers_steady_errors_on_the_route():
     assert alone["roll_deg"] > 0.1 and trimmed["roll_deg"] < 0.5 * alone["roll_deg"]
 
 
+def test_the_rudder_trim_integrates_sideslip_against_the_pid_sideslip_gain():
+    sideslip = MEASUREMENT.copy()
+    sideslip[8] = math.radians(1.0)
+    fast, slow = (IntegralTrim(_Offset([0.0, 0.0, 2.0, 0.4]), 0.5, rudder_time_s=t) for t in (2.0, 8.0))
+    for trim in (fast, slow):
+        trim.update(0.04, sideslip, np.array([0.0, 0.02, 10.0]))
+        command = trim.update(0.04, sideslip, np.array([0.0, 0.02, 10.0]))
+        # The PID's sideslip gain is negative (positive rudder yaws left): positive sideslip, less rudder.
+        assert command[2] < 2.0 and command[:2].tolist() == [0.0, 0.0]
+    assert fast.trim_deg[2] == pytest.approx(4.0 * slow.trim_deg[2])  # the gain goes as 1 / time constant
+    assert IntegralTrim(_Offset([0, 0, 0, 0.5]), 0.5).trim_deg.size == 2  # none unless asked for
+    with pytest.raises(ValueError, match="rudder trim time constant"):
+        IntegralTrim(_Offset([0, 0, 0, 0.5]), 0.5, rudder_time_s=0.1)
+
+
 def test_a_policy_with_built_in_trim_refuses_a_second_one():
     class TrainedWithTrim:
         def __init__(self):
@@ -100,3 +115,11 @@ def test_gain_schedule_interpolates_as_np_interp_to_the_bit():
         assert list(astuple(schedule.at(altitude_m))) == expected
         assert schedule.interpolate(altitude_m, (3, 0)) == [expected[3], expected[0]]
     assert all(math.isnan(g) for g in astuple(schedule.at(math.nan)))
+
+
+@pytest.mark.parametrize(("fraction", "observe"), [(0.0, False), (0.5, True)])
+def test_a_rudder_trim_needs_hidden_integral_trims(fraction, observe):
+    from jsbsim_env.task import TaskConfig
+
+    with pytest.raises(ValueError, match="a rudder trim"):
+        TaskConfig(integral_trim=fraction, observe_trims=observe, rudder_trim_s=2.0)

@@ -141,22 +141,23 @@ def test_ship_policy_needs_the_runs_first_command_and_commit(policy_file, tmp_pa
     assert [p.stat().st_mtime_ns for p in sorted(Path(script).parents[1].glob("training/shipped/*"))] == shipped
 
 
-@pytest.mark.parametrize(("decay", "trim", "observe", "in_surfaces"),
-                         [(0.0, 0.0, True, True), (0.99, 0.0, True, True), (0.0, 0.5, True, True),
-                          (0.99, 0.5, True, True), (0.99, 0.5, False, True), (0.0, 0.5, False, False)])
-def test_runtime_builds_the_environments_observation(tmp_path, decay, trim, observe, in_surfaces):
+@pytest.mark.parametrize(("decay", "trim", "observe", "in_surfaces", "rudder_s"),
+                         [(0.0, 0.0, True, True, 0.0), (0.99, 0.0, True, True, 0.0), (0.0, 0.5, True, True, 0.0),
+                          (0.99, 0.5, True, True, 0.0), (0.99, 0.5, False, True, 0.0),
+                          (0.0, 0.5, False, False, 0.0), (0.0, 0.5, False, False, 2.0)])
+def test_runtime_builds_the_environments_observation(tmp_path, decay, trim, observe, in_surfaces, rudder_s):
     """Flying from measurements (with its own last action, and error integrals and integral trim, seen
     or hidden, in the surface positions or taken off them, where the policy has them) gives the same
     commands as flying from the environment's observations."""
     c = TrainConfig(seed=2)
     c.env.num_envs, c.buffer.capacity, c.log.progress = 1, 10, False
     c.env.error_integral_decay, c.env.integral_trim, c.env.observe_trims = decay, trim, observe
-    c.env.trims_in_surfaces = in_surfaces
+    c.env.trims_in_surfaces, c.env.rudder_trim_s = in_surfaces, rudder_s
     path = tmp_path / "policy.pt"
     Trainer(c, tmp_path / "run").save_policy(path, {"return_norm": 0.0})
     from_env, from_measurement = PolicyRuntime(path, backend="torch"), PolicyRuntime(path, backend="torch")
     task = AttitudeTask(TaskConfig(error_integral_decay=decay, integral_trim=trim, observe_trims=observe,
-                                   trims_in_surfaces=in_surfaces))
+                                   trims_in_surfaces=in_surfaces, rudder_trim_s=rudder_s))
     assert from_env.observation_size == task.config.observation_size
     obs, _ = task.reset(4)
     trims_seen = []
@@ -167,11 +168,12 @@ def test_runtime_builds_the_environments_observation(tmp_path, decay, trim, obse
             trims_seen.append(np.array(task.batch._trims[0].trim_deg))
             if observe:
                 np.testing.assert_allclose(obs[OBS_SIZE - 3:OBS_SIZE - 1] * TRIM_SCALE_DEG, trims_seen[-1], atol=1e-4)
-            surfaces_rad = obs[9:11] * OBS_SCALE[9:11] + OBS_OFFSET[9:11]
-            measured_rad = task.batch.measurements()[0, 9:11]
+            trimmed = slice(9, 9 + len(trims_seen[-1]))  # aileron, elevator, and rudder where trimmed
+            surfaces_rad = obs[trimmed] * OBS_SCALE[trimmed] + OBS_OFFSET[trimmed]
+            measured_rad = task.batch.measurements()[0, trimmed]
             np.testing.assert_allclose(surfaces_rad, measured_rad - (0.0 if in_surfaces else np.radians(trims_seen[-1])),
                                        atol=1e-5)
-            command_env[:2] += trims_seen[-1]
+            command_env[:len(trims_seen[-1])] += trims_seen[-1]
         dt_s = task.core.setup.control_interval_s
         command = from_measurement.act(task.batch.measurements()[0], task.batch.goals[0], dt_s)
         np.testing.assert_allclose(command_env, command, atol=1e-4)

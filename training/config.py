@@ -37,6 +37,8 @@ class EnvSettings:
                                     "cancel them and they drift to their limits, docs/training.md)")
     trims_in_surfaces: bool = _f(True, "the policy's observed aileron and elevator positions include the integral "
                                        "trims (False: taken off, so hidden trims cannot show through them)")
+    rudder_trim_s: float = _f(0.0, "time constant (s) of a rudder trim on sideslip beside the integral trims, at "
+                                   "the PID's sideslip gain over it (hidden trims only; 0: none)")
     sideslip_weight: float = _f(3.0, "training reward's sideslip penalty and its cap times this (1: SPEC Eq. 22; "
                                      "3 halved the sideslip, docs/training.md); evaluations keep Eq. 22")
     external_throttle: float = _f(0.0, "share of training episodes whose throttle a speed hold flies instead of the "
@@ -134,6 +136,7 @@ class TrainConfig:
             config.buffer.relabel_fraction = 0.0
             config.env.error_integral_decay = 0.0
             config.env.integral_trim = 0.0
+            config.env.rudder_trim_s = 0.0
             config.env.sideslip_weight = 1.0
             config.env.external_throttle = 0.0
         elif name != "default":

@@ -61,7 +61,8 @@ class DeterministicActor(nn.Module):
 def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
     """The deterministic actor and the metadata saved with it (``Trainer.save_policy``); the metadata's
     ``error_integral_decay``, ``integral_trim`` (0 for files from before them), ``observe_trims`` and
-    ``trims_in_surfaces`` (True before them) set the observation layout."""
+    ``trims_in_surfaces`` (True before them) set the observation layout; ``rudder_trim_s`` (0 before
+    it) the trims."""
     path = Path(path)
     if not path.is_file():
         raise PolicyFileError(f"no policy file at {path}")
@@ -74,6 +75,7 @@ def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
         trim = float(data.get("integral_trim", 0.0))
         observe_trims = bool(data.get("observe_trims", True))
         trims_in_surfaces = bool(data.get("trims_in_surfaces", True))
+        rudder_trim_s = float(data.get("rudder_trim_s", 0.0))
         expected = observation_size(decay, trim, observe_trims)
         prefix = "module.0.module."
         state = {k[len(prefix):]: v for k, v in data["actor"].items() if k.startswith(prefix)}
@@ -91,7 +93,7 @@ def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
     actor = DeterministicActor(net).eval()
     meta = {k: v for k, v in data.items() if k != "actor"}
     meta["error_integral_decay"], meta["integral_trim"], meta["observe_trims"] = decay, trim, observe_trims
-    meta["trims_in_surfaces"] = trims_in_surfaces
+    meta["trims_in_surfaces"], meta["rudder_trim_s"] = trims_in_surfaces, rudder_trim_s
     return actor, meta
 
 
@@ -163,7 +165,7 @@ class PolicyRuntime:
         self._trim_free_surfaces = trim > 0.0 and not self.meta["trims_in_surfaces"]
         self.observation_size = observation_size(decay, trim, self._observe_trims)
         self._integrals = ErrorIntegrals(decay) if decay > 0.0 else None
-        self._trim = TrimIntegrator(trim) if trim > 0.0 else None
+        self._trim = TrimIntegrator(trim, rudder_time_s=self.meta["rudder_trim_s"]) if trim > 0.0 else None
         # The window, oldest row first, shifted in place each step; empty until the episode's first push.
         self._window = np.zeros((self.window, self.observation_size), dtype=np.float32)
         self._filled = False

@@ -94,7 +94,7 @@ class Trainer:
         core = CoreConfig() if c.env.disturbances else CoreConfig.ideal()
         self.task_config = TaskConfig(core=core, error_integral_decay=c.env.error_integral_decay,
                                       integral_trim=c.env.integral_trim, observe_trims=c.env.observe_trims,
-                                      trims_in_surfaces=c.env.trims_in_surfaces,
+                                      trims_in_surfaces=c.env.trims_in_surfaces, rudder_trim_s=c.env.rudder_trim_s,
                                       sideslip_weight=c.env.sideslip_weight,
                                       external_throttle=c.env.external_throttle)
         self.env = make_env(c.env.num_envs, self.task_config, seed=c.seed, window=c.env.window,
@@ -188,6 +188,7 @@ class Trainer:
             "integral_trim": self.config.env.integral_trim,
             "observe_trims": self.config.env.observe_trims,
             "trims_in_surfaces": self.config.env.trims_in_surfaces,
+            "rudder_trim_s": self.config.env.rudder_trim_s,
             "frames": self.counters.frames,
             "seed": self.config.seed,
             "evaluation": evaluation,

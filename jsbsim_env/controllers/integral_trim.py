@@ -6,13 +6,16 @@ from the aircraft's (measured on a policy trained without it, in calm air: about
 and 1 deg of pitch at every altitude). The integrators here remove it the way the PID's do: the
 PID's gain-scheduled integral gains (``pid_gains.json``), times ``fraction``, scaled by dynamic
 pressure, with the same anti-windup (no integration while the command is saturated that way) and
-bounds. The throttle is left alone (TECS's on a route, the controller's otherwise), and so is the
-rudder: a sideslip integrator tried beside them doubled the sideslip RMSE in turbulence.
+bounds. The throttle is left alone (TECS's on a route, the controller's otherwise). A rudder trim
+is optional (``rudder_time_s`` > 0): the PID has no sideslip integrator, so its gain is the PID's
+sideslip gain over a time constant. Wrapped around a policy trained without it, it doubled the
+sideslip RMSE in turbulence; it is meant to be learned beside (``TaskConfig.rudder_trim_s``).
 
 | loop | added command |
 |---|---|
 | roll | aileron += integral of fraction q_s k_roll_i (roll - roll_cmd) |
 | pitch | elevator += integral of fraction q_s k_pitch_i (pitch - pitch_cmd) |
+| sideslip (optional) | rudder += integral of fraction q_s (k_beta / rudder_time_s) beta |
 
 Two ways to use them: ``IntegralTrim`` wraps any controller after the fact; a policy trained with
 ``TaskConfig.integral_trim`` learns beside them and observes their values (``jsbsim_env.task``,
@@ -35,26 +38,35 @@ from jsbsim_env.controllers.pid import (
 )
 from jsbsim_env.core import COMMAND_HIGH, COMMAND_LOW
 
-_SURFACE_LOW, _SURFACE_HIGH = COMMAND_LOW[:2].tolist(), COMMAND_HIGH[:2].tolist()
+_SURFACE_LOW, _SURFACE_HIGH = COMMAND_LOW[:3].tolist(), COMMAND_HIGH[:3].tolist()
+_ROLL, _PITCH, _BETA = 1, 2, 8  # in ``core.STATE_NAMES``
 
 
 class TrimIntegrator:
-    """The aileron and elevator trims (deg) of one aircraft, on plain floats (the batched task
-    keeps one per aircraft and calls it every control step)."""
+    """The aileron and elevator trims (deg) of one aircraft, and the rudder's with ``rudder_time_s``
+    > 0, on plain floats (the batched task keeps one per aircraft and calls it every control step)."""
 
-    def __init__(self, fraction: float, schedule: GainSchedule | None = None):
+    def __init__(self, fraction: float, schedule: GainSchedule | None = None, rudder_time_s: float = 0.0):
         if not 0.0 < fraction <= 2.0:
             raise ValueError(f"integral trim fraction must lie in (0, 2], got {fraction}")
+        if not (rudder_time_s == 0.0 or 0.5 <= rudder_time_s <= 100.0):
+            raise ValueError(f"rudder trim time constant must be 0 (no rudder trim) or lie in [0.5, 100] s, "
+                             f"got {rudder_time_s}")
         self.fraction = float(fraction)
+        self.rudder_time_s = float(rudder_time_s)
         schedule = schedule or GainSchedule()
         names = [f.name for f in fields(DesignPoint)]  # the order of the schedule's columns
         self._schedule = schedule
-        self._gain_columns = (names.index("k_roll_i"), names.index("k_pitch_i"))
+        columns = ["k_roll_i", "k_pitch_i"] + (["k_beta"] if rudder_time_s else [])
+        self._gain_columns = tuple(names.index(c) for c in columns)
+        self._gain_divisors = (1.0, 1.0, rudder_time_s)[:len(columns)]
+        self._errors = ((_ROLL, 0), (_PITCH, 1), (_BETA, None))[:len(columns)]  # (state, goal); sideslip's is 0
+        self.channels = len(columns)
         self.reset()
 
     def reset(self) -> None:
-        self.trim_deg = [0.0, 0.0]
-        self._held = [0.0, 0.0]  # > 0: the last command was clipped at its upper limit, < 0 at its lower
+        self.trim_deg = [0.0] * self.channels
+        self._held = [0.0] * self.channels  # > 0: the last command was clipped at its upper limit, < 0 at its lower
 
     def integrate(self, dt_s: float, measurement, goal) -> list[float]:
         """One control interval of integration on a measured state (``core.STATE_NAMES``) and goal
@@ -62,11 +74,11 @@ class TrimIntegrator:
         altitude, eas = float(measurement[0]), float(measurement[6])
         q_s = (DESIGN_EAS_MPS / max(eas, MIN_EAS_FOR_SCALING_MPS)) ** 2
         k = self.fraction * q_s * dt_s
-        k_roll_i, k_pitch_i = self._schedule.interpolate(altitude, self._gain_columns)
-        increments = (k * k_roll_i * (float(measurement[1]) - float(goal[0])),
-                      k * k_pitch_i * (float(measurement[2]) - float(goal[1])))
+        gains = self._schedule.interpolate(altitude, self._gain_columns)
         lim = SURFACE_INTEGRATOR_LIMIT_DEG
-        for j, inc in enumerate(increments):
+        for j, (gain, divisor, (state, target)) in enumerate(zip(gains, self._gain_divisors, self._errors)):
+            error = float(measurement[state]) - (0.0 if target is None else float(goal[target]))
+            inc = k * gain / divisor * error
             if inc * self._held[j] > 0.0:
                 continue  # anti-windup: the surface is already saturated that way
             self.trim_deg[j] = min(max(self.trim_deg[j] + inc, -lim), lim)
@@ -74,9 +86,9 @@ class TrimIntegrator:
 
     def apply(self, command) -> list[float]:
         """``command`` (aileron, elevator, rudder in deg, throttle) with the trims added and the
-        surfaces clipped to their travel; remembers which way a surface saturated."""
+        trimmed surfaces clipped to their travel; remembers which way a surface saturated."""
         out = list(command)
-        for j in range(2):
+        for j in range(self.channels):
             wanted = out[j] + self.trim_deg[j]
             out[j] = min(max(wanted, _SURFACE_LOW[j]), _SURFACE_HIGH[j])
             self._held[j] = wanted - out[j]
@@ -87,13 +99,14 @@ class IntegralTrim:
     """``controller`` with integral trim on roll and pitch (module docstring) added after the fact;
     shares the ``AttitudeController`` interface."""
 
-    def __init__(self, controller: AttitudeController, fraction: float = 0.5, schedule: GainSchedule | None = None):
+    def __init__(self, controller: AttitudeController, fraction: float = 0.5, schedule: GainSchedule | None = None,
+                 rudder_time_s: float = 0.0):
         built_in = getattr(controller, "meta", {}).get("integral_trim", 0.0)
         if built_in:  # two integrators on the same error would fight over the same trim
             raise ValueError(f"this policy was trained with integral trim ({built_in:g}) and applies it itself: "
                              "fly it without --integral-trim")
         self.controller = controller
-        self.integrator = TrimIntegrator(fraction, schedule)
+        self.integrator = TrimIntegrator(fraction, schedule, rudder_time_s)
         self.fraction = self.integrator.fraction
         self.reset()
 
