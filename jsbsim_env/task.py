@@ -74,6 +74,7 @@ CRITIC_STATE_BASE = N_STATE + RECENT_ACTIONS * ACTION_SIZE + 2 + len(SCALED_TERM
 ACTION_SCALE = np.array([30.0, 30.0, 20.0, 0.5])
 ACTION_OFFSET = np.array([0.0, 0.0, 0.0, 0.5])
 ACTION_TOLERANCE = 1e-6
+_ACT_SCALE, _ACT_OFFSET = ACTION_SCALE.tolist(), ACTION_OFFSET.tolist()
 
 
 class ActionError(ValueError):
@@ -91,6 +92,12 @@ def action_to_command(action: np.ndarray) -> np.ndarray:
     if not all(-limit <= x <= limit for x in a.tolist()):
         raise ActionError(f"action {a} is not finite or outside [-1, 1]")
     return ACTION_OFFSET + ACTION_SCALE * np.minimum(np.maximum(a, -1.0), 1.0)
+
+
+def action_list_to_command(action: list[float]) -> list[float]:
+    """``action_to_command`` on a list of four floats already in [-1, 1], as a list: what the
+    per-step loops use (a few microseconds less than the array version)."""
+    return [o + k * x for x, k, o in zip(action, _ACT_SCALE, _ACT_OFFSET)]
 
 
 def command_to_action(command: np.ndarray) -> np.ndarray:
@@ -276,7 +283,6 @@ class AttitudeTaskBatch:
         self._goal_rngs: list[np.random.Generator] = [np.random.default_rng() for _ in range(n)]
         self.last_actions: list[list[float]] = [[0.0] * ACTION_SIZE for _ in range(n)]
         self._sensor_noise = self.config.core.sensor_noise
-        self._act_scale, self._act_offset = ACTION_SCALE.tolist(), ACTION_OFFSET.tolist()
         self._obs_offset = OBS_OFFSET.tolist()
         self._obs_inv_scale = (1.0 / OBS_SCALE).tolist()
         decay = self.config.error_integral_decay
@@ -344,7 +350,7 @@ class AttitudeTaskBatch:
         for i, (core, a) in enumerate(zip(self.cores, rows)):
             a = self.last_actions[i] = [min(max(x, -1.0), 1.0) for x in a]
             self._recent_actions[i] = a + self._recent_actions[i][:-ACTION_SIZE]
-            command = [o + k * x for x, k, o in zip(a, self._act_scale, self._act_offset)]
+            command = action_list_to_command(a)
             if self._trims is not None:
                 command = self._trims[i].apply(command)
             external = self.external_throttle[i]

@@ -6,7 +6,16 @@ import numpy as np
 import pytest
 import torch
 
-from jsbsim_env.task import OBS_OFFSET, OBS_SCALE, OBS_SIZE, TRIM_SCALE_DEG, AttitudeTask, TaskConfig, action_to_command
+from jsbsim_env.task import (
+    OBS_OFFSET,
+    OBS_SCALE,
+    OBS_SIZE,
+    TRIM_SCALE_DEG,
+    ActionError,
+    AttitudeTask,
+    TaskConfig,
+    action_to_command,
+)
 from training.checkpoint import atomic_save, checked_load
 from training.config import TrainConfig
 from training.policy import PolicyFileError, PolicyRuntime, export_onnx, load_policy
@@ -72,6 +81,25 @@ def test_runtime_window_matches_catframes_and_backends_agree(policy_file, tmp_pa
     np.testing.assert_allclose(runtime_torch.act(np.array([10000.0, 0, 0, 0, 0, 0, 10.0, 0, 0, 0, 0, 0, 0.5]),
                                                  np.array([0.0, 0.0, 10.0]), 0.04),
                                action_to_command(a), atol=1e-6)  # the integral trims start at zero
+
+
+@pytest.mark.parametrize("backend", ["onnx", "torch"])
+def test_a_nan_measurement_is_a_clear_error_not_a_command(policy_file, backend):
+    path, _ = policy_file
+    runtime = PolicyRuntime(path, backend=backend)
+    measurement = np.array([10000.0, 0, 0, 0, 0, 0, 10.0, 0, 0, 0, 0, 0, 0.5])
+    runtime.act(measurement, np.array([0.0, 0.0, 10.0]), 0.04)
+    for index in (1, 6, 10):  # onnxruntime's LSTM turns a NaN input into finite actions: refused before it
+        bad = measurement.copy()
+        bad[index] = np.nan
+        with pytest.raises(ValueError, match="is not finite"):
+            runtime.act(bad, np.array([0.0, 0.0, 10.0]), 0.04)
+    with pytest.raises(ValueError, match="is not finite"):
+        runtime.act(measurement, np.array([0.0, np.inf, 10.0]), 0.04)
+    runtime.actor.net.encoder.lstm.weight_ih_l0.data[:] = np.nan  # a network that gives NaN: not a command
+    runtime.backend = "torch"
+    with pytest.raises(ActionError, match="not finite"):
+        runtime.act(measurement, np.array([0.0, 0.0, 10.0]), 0.04)
 
 
 def test_a_stale_onnx_export_beside_a_rewritten_policy_is_not_used(policy_file, tmp_path):

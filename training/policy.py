@@ -9,6 +9,7 @@ runs either the PyTorch network or its ONNX export (onnxruntime, one thread).
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 import tempfile
 import warnings
@@ -20,10 +21,10 @@ import torch
 from torch import nn
 
 from jsbsim_env.controllers.integral_trim import TrimIntegrator
-from jsbsim_env.core import COMMAND_HIGH, COMMAND_LOW
 from jsbsim_env.task import (
+    ActionError,
     ErrorIntegrals,
-    action_to_command,
+    action_list_to_command,
     initial_last_action,
     insert_trims,
     observation_size,
@@ -169,7 +170,7 @@ class PolicyRuntime:
         # The window, oldest row first, shifted in place each step; empty until the episode's first push.
         self._window = np.zeros((self.window, self.observation_size), dtype=np.float32)
         self._filled = False
-        self._last_action: np.ndarray | None = None  # fed back into the next observation
+        self._last_action: list[float] | np.ndarray | None = None  # fed back into the next observation
         if backend == "onnx":
             import onnxruntime as ort
 
@@ -197,7 +198,7 @@ class PolicyRuntime:
     def reset(self) -> None:
         """Forget the window, the last action, the error integrals and the trims (a new episode)."""
         self._filled = False
-        self._last_action: np.ndarray | None = None
+        self._last_action = None
         if self._integrals is not None:
             self._integrals.reset()
         if self._trim is not None:
@@ -228,8 +229,12 @@ class PolicyRuntime:
     def act(self, measurement: np.ndarray, goal: np.ndarray, dt_s: float | None = None) -> np.ndarray:
         """Actuator command (aileron, elevator, rudder in deg, throttle) for a measured state
         (``core.STATE_NAMES``) and goal (roll, pitch in rad, EAS in m/s); ``dt_s``, the control
-        interval, is needed by a policy trained with integral trim."""
-        measurement = np.asarray(measurement)
+        interval, is needed by a policy trained with integral trim. A measurement or goal that is
+        not finite is refused (``ValueError``): the network would map it to some finite command."""
+        measurement, goal = np.asarray(measurement), np.asarray(goal)
+        # One sum of plain floats is not finite if any value is not, at a fraction of np.isfinite's cost.
+        if not math.isfinite(sum(measurement.tolist()) + sum(goal.tolist())):
+            raise ValueError(f"measurement {measurement.tolist()} or goal {goal.tolist()} is not finite")
         first = self._last_action is None
         if first:
             self._last_action = initial_last_action(measurement)
@@ -239,7 +244,7 @@ class PolicyRuntime:
             if not first:  # as in training: the integrators start from zero with the episode
                 self._trim.integrate(dt_s, measurement, goal)
         seen = without_trims(measurement.tolist(), self._trim.trim_deg) if self._trim_free_surfaces else measurement
-        obs = scale_observation(seen, self._last_action, np.asarray(goal))
+        obs = scale_observation(seen, self._last_action, goal)
         if self._observe_trims or self._integrals is not None:  # the layout of AttitudeTaskBatch._observation
             row = obs.tolist()
             if self._observe_trims:
@@ -247,12 +252,16 @@ class PolicyRuntime:
             if self._integrals is not None:
                 row = self._integrals.extend(row)
             obs = np.asarray(row, dtype=np.float32)
-        # ufuncs directly: np.clip's wrapper alone costs about 10 us a call
-        self._last_action = np.minimum(np.maximum(self.action(self._push(obs)).astype(np.float64), -1.0), 1.0)
-        command = action_to_command(self._last_action)
+        # On four plain floats: numpy's per-call overhead would cost more than the arithmetic here.
+        raw = self.action(self._push(obs)).tolist()
+        action = [min(max(x, -1.0), 1.0) for x in raw]  # a NaN stays NaN
+        if not all(-1.0 <= x <= 1.0 for x in action):
+            raise ActionError(f"the policy's action {raw} is not finite")
+        self._last_action = action
+        command = action_list_to_command(action)  # within the actuators' travel for actions in [-1, 1]
         if self._trim is not None:
-            command = np.minimum(np.maximum(self._trim.apply(command.tolist()), COMMAND_LOW), COMMAND_HIGH)
-        return command
+            command = self._trim.apply(command)  # clips the trimmed surfaces to their travel
+        return np.array(command)
 
     def update(self, dt_s: float, measurement: np.ndarray, setpoint: np.ndarray) -> np.ndarray:
         """``act`` under the shared attitude-controller interface (``jsbsim_env.controllers.base``)."""

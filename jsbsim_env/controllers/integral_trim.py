@@ -59,8 +59,6 @@ class TrimIntegrator:
         self._schedule = schedule
         columns = ["k_roll_i", "k_pitch_i"] + (["k_beta"] if rudder_time_s else [])
         self._gain_columns = tuple(names.index(c) for c in columns)
-        self._gain_divisors = (1.0, 1.0, rudder_time_s)[:len(columns)]
-        self._errors = ((_ROLL, 0), (_PITCH, 1), (_BETA, None))[:len(columns)]  # (state, goal); sideslip's is 0
         self.channels = len(columns)
         self.reset()
 
@@ -75,10 +73,12 @@ class TrimIntegrator:
         q_s = (DESIGN_EAS_MPS / max(eas, MIN_EAS_FOR_SCALING_MPS)) ** 2
         k = self.fraction * q_s * dt_s
         gains = self._schedule.interpolate(altitude, self._gain_columns)
+        increments = [k * gains[0] * (float(measurement[_ROLL]) - float(goal[0])),
+                      k * gains[1] * (float(measurement[_PITCH]) - float(goal[1]))]
+        if self.channels == 3:  # sideslip's goal is 0
+            increments.append(k * gains[2] / self.rudder_time_s * float(measurement[_BETA]))
         lim = SURFACE_INTEGRATOR_LIMIT_DEG
-        for j, (gain, divisor, (state, target)) in enumerate(zip(gains, self._gain_divisors, self._errors)):
-            error = float(measurement[state]) - (0.0 if target is None else float(goal[target]))
-            inc = k * gain / divisor * error
+        for j, inc in enumerate(increments):
             if inc * self._held[j] > 0.0:
                 continue  # anti-windup: the surface is already saturated that way
             self.trim_deg[j] = min(max(self.trim_deg[j] + inc, -lim), lim)
