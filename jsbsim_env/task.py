@@ -56,7 +56,7 @@ INTEGRAL_GAIN = 10.0
 INTEGRAL_SIZE = len(INTEGRAL_COLUMNS) + 1
 
 # Integral trim (``TaskConfig.integral_trim`` > 0), beyond the paper: the aileron and elevator
-# trims of ``controllers.integral_trim.TrimIntegrator``, added to the policy's commands and, unless
+# (and, with ``rudder_trim_s``, rudder) trims of ``controllers.integral_trim.TrimIntegrator``, added to the policy's commands and, unless
 # ``TaskConfig.observe_trims`` is off, shown to it (scaled as the surfaces) after the last action,
 # before any error integrals and the goals.
 TRIM_SIZE = 2
@@ -161,12 +161,13 @@ class TaskConfig:
     ``observe_trims`` False hides the trims from the policy: it cannot then learn to cancel them, so
     they settle where they remove its steady error rather than drifting to their limits against an
     opposite bias of the policy (``docs/training.md``).
-    ``trims_in_surfaces`` False takes the trims off the measured aileron and elevator positions in
-    the observation: the policy sees the part of each surface it commanded. With the trims in them,
-    hidden trims still show as surfaces that stand away from the policy's last action, and a policy
-    learns to cancel them through that.
-    ``rudder_trim_s`` T > 0 adds a rudder trim on sideslip beside them, at the PID's sideslip gain
-    over T (``TrimIntegrator``); with hidden trims only.
+    ``trims_in_surfaces`` False takes the present trims off the measured positions of the trimmed
+    surfaces in the observation: the policy sees the part of each surface it commanded (exactly in
+    steady state; while a trim moves, the actuators lag it by the delay and their time constant).
+    With the trims in them, hidden trims show as surfaces that stand away from the policy's last
+    action, and a policy learns to cancel them through that. Without integral trim it does nothing.
+    ``rudder_trim_s`` T > 0 adds a rudder trim on sideslip beside them, at ``integral_trim`` times
+    the PID's sideslip gain over T (``TrimIntegrator``); with hidden trims only.
     ``sideslip_weight`` multiplies Eq. 22's sideslip penalty and its cap (1: the paper's reward).
     ``external_throttle`` is the share of episodes in which a speed hold (the PID's airspeed loop)
     flies the throttle instead of the policy, as TECS does on a route. Those episodes are speed-free
@@ -188,11 +189,7 @@ class TaskConfig:
     def __post_init__(self):
         if not 0.0 <= self.error_integral_decay < 1.0:
             raise ValueError(f"error_integral_decay must lie in [0, 1), got {self.error_integral_decay}")
-        if not 0.0 <= self.integral_trim <= 2.0:
-            raise ValueError(f"integral_trim must lie in [0, 2], got {self.integral_trim}")
-        if self.rudder_trim_s and (not self.integral_trim or self.observe_trims):
-            raise ValueError("a rudder trim (rudder_trim_s > 0) needs integral trim (integral_trim > 0) with the "
-                             "trims hidden (observe_trims False): the observation has room for two trims")
+        check_trim_settings(self.integral_trim, self.observe_trims, self.rudder_trim_s)
         if not 0.0 <= self.sideslip_weight <= 10.0:
             raise ValueError(f"sideslip_weight must lie in [0, 10], got {self.sideslip_weight}")
         if not 0.0 <= self.external_throttle <= 1.0:
@@ -205,6 +202,17 @@ class TaskConfig:
     @property
     def critic_state_size(self) -> int:
         return CRITIC_STATE_BASE + self.observation_size - OBS_SIZE
+
+
+def check_trim_settings(integral_trim: float, observe_trims: bool, rudder_trim_s: float) -> None:
+    """Raise ``ValueError`` naming the problem if the integral trim settings cannot go together."""
+    if not 0.0 <= integral_trim <= 2.0:
+        raise ValueError(f"integral_trim must lie in [0, 2], got {integral_trim}")
+    if not (rudder_trim_s == 0.0 or 0.5 <= rudder_trim_s <= 100.0):
+        raise ValueError(f"rudder_trim_s must be 0 (no rudder trim) or lie in [0.5, 100] s, got {rudder_trim_s}")
+    if rudder_trim_s and (not integral_trim or observe_trims):
+        raise ValueError("a rudder trim (rudder_trim_s > 0) needs integral trim (integral_trim > 0) with the "
+                         "trims hidden (observe_trims False): the observation has room for two trims")
 
 
 def observation_size(error_integral_decay: float, integral_trim: float = 0.0, observe_trims: bool = True) -> int:

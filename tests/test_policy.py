@@ -92,14 +92,32 @@ def test_a_nan_measurement_is_a_clear_error_not_a_command(policy_file, backend):
     for index in (1, 6, 10):  # onnxruntime's LSTM turns a NaN input into finite actions: refused before it
         bad = measurement.copy()
         bad[index] = np.nan
-        with pytest.raises(ValueError, match="is not finite"):
+        with pytest.raises(ValueError, match="measurement .* is not finite"):
             runtime.act(bad, np.array([0.0, 0.0, 10.0]), 0.04)
-    with pytest.raises(ValueError, match="is not finite"):
+    with pytest.raises(ValueError, match="measurement .* is not finite"):
         runtime.act(measurement, np.array([0.0, np.inf, 10.0]), 0.04)
+    for dt_s in (float("nan"), 0.0, -0.04):  # a NaN interval would stay in the trims for good
+        with pytest.raises(ValueError, match="control interval must be positive"):
+            runtime.act(measurement, np.array([0.0, 0.0, 10.0]), dt_s)
     runtime.actor.net.encoder.lstm.weight_ih_l0.data[:] = np.nan  # a network that gives NaN: not a command
     runtime.backend = "torch"
     with pytest.raises(ActionError, match="not finite"):
         runtime.act(measurement, np.array([0.0, 0.0, 10.0]), 0.04)
+    assert runtime._last_action is None and runtime._trim.trim_deg == [0.0, 0.0]  # reset: the next call starts afresh
+
+
+@pytest.mark.parametrize(("settings", "problem"), [({"integral_trim": 0.5, "observe_trims": True, "rudder_trim_s": 4.0},
+                                                     "room for two trims"),
+                                                    ({"integral_trim": 0.5, "observe_trims": False,
+                                                      "rudder_trim_s": 0.1}, "rudder_trim_s must be 0")])
+def test_a_policy_file_with_trim_settings_that_cannot_go_together_is_refused(policy_file, tmp_path, settings, problem):
+    path, _ = policy_file
+    data = checked_load(path)
+    data.update(settings)
+    bad = tmp_path / "bad.pt"
+    atomic_save(data, bad)
+    with pytest.raises(PolicyFileError, match=problem):
+        load_policy(bad)
 
 
 def test_a_stale_onnx_export_beside_a_rewritten_policy_is_not_used(policy_file, tmp_path):
@@ -208,4 +226,4 @@ def test_runtime_builds_the_environments_observation(tmp_path, decay, trim, obse
         obs, _, terminated, truncated, _ = task.step(a_env)
         assert not (terminated or truncated)
     if trim > 0.0:
-        assert np.abs(trims_seen[-1]).max() > 0.01  # the trims moved
+        assert np.abs(trims_seen[-1]).min() > 0.01  # every trim moved, the rudder's too where there is one

@@ -35,10 +35,11 @@ class EnvSettings:
                                    "as the paper). Removes the policy's steady attitude error (docs/training.md)")
     observe_trims: bool = _f(False, "show the integral trims to the policy (a policy that sees them learns to "
                                     "cancel them and they drift to their limits, docs/training.md)")
-    trims_in_surfaces: bool = _f(True, "the policy's observed aileron and elevator positions include the integral "
-                                       "trims (False: taken off, so hidden trims cannot show through them)")
+    trims_in_surfaces: bool = _f(True, "the policy's observed positions of the trimmed surfaces include the integral "
+                                       "trims (False: the present trims taken off, so that hidden trims show only "
+                                       "while they move)")
     rudder_trim_s: float = _f(0.0, "time constant (s) of a rudder trim on sideslip beside the integral trims, at "
-                                   "the PID's sideslip gain over it (hidden trims only; 0: none)")
+                                   "integral_trim times the PID's sideslip gain over it (hidden trims only; 0: none)")
     sideslip_weight: float = _f(3.0, "training reward's sideslip penalty and its cap times this (1: SPEC Eq. 22; "
                                      "3 halved the sideslip, docs/training.md); evaluations keep Eq. 22")
     external_throttle: float = _f(0.0, "share of training episodes whose throttle a speed hold flies instead of the "

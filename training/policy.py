@@ -25,6 +25,7 @@ from jsbsim_env.task import (
     ActionError,
     ErrorIntegrals,
     action_list_to_command,
+    check_trim_settings,
     initial_last_action,
     insert_trims,
     observation_size,
@@ -61,9 +62,9 @@ class DeterministicActor(nn.Module):
 
 def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
     """The deterministic actor and the metadata saved with it (``Trainer.save_policy``); the metadata's
-    ``error_integral_decay``, ``integral_trim`` (0 for files from before them), ``observe_trims`` and
-    ``trims_in_surfaces`` (True before them) set the observation layout; ``rudder_trim_s`` (0 before
-    it) the trims."""
+    ``error_integral_decay``, ``integral_trim`` (0 for files from before them), and ``observe_trims``
+    (True before it) set the observation layout; ``trims_in_surfaces`` (True before it) what the
+    observed surface positions hold; ``rudder_trim_s`` (0 before it) the trims."""
     path = Path(path)
     if not path.is_file():
         raise PolicyFileError(f"no policy file at {path}")
@@ -77,6 +78,7 @@ def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
         observe_trims = bool(data.get("observe_trims", True))
         trims_in_surfaces = bool(data.get("trims_in_surfaces", True))
         rudder_trim_s = float(data.get("rudder_trim_s", 0.0))
+        check_trim_settings(trim, observe_trims, rudder_trim_s)
         expected = observation_size(decay, trim, observe_trims)
         prefix = "module.0.module."
         state = {k[len(prefix):]: v for k, v in data["actor"].items() if k.startswith(prefix)}
@@ -235,14 +237,13 @@ class PolicyRuntime:
         # One sum of plain floats is not finite if any value is not, at a fraction of np.isfinite's cost.
         if not math.isfinite(sum(measurement.tolist()) + sum(goal.tolist())):
             raise ValueError(f"measurement {measurement.tolist()} or goal {goal.tolist()} is not finite")
+        if self._trim is not None and dt_s is None:
+            raise ValueError("this policy was trained with integral trim: give act() the control interval dt_s")
         first = self._last_action is None
         if first:
             self._last_action = initial_last_action(measurement)
-        if self._trim is not None:
-            if dt_s is None:
-                raise ValueError("this policy was trained with integral trim: give act() the control interval dt_s")
-            if not first:  # as in training: the integrators start from zero with the episode
-                self._trim.integrate(dt_s, measurement, goal)
+        if self._trim is not None and not first:  # as in training: the integrators start from zero with the episode
+            self._trim.integrate(dt_s, measurement, goal)
         seen = without_trims(measurement.tolist(), self._trim.trim_deg) if self._trim_free_surfaces else measurement
         obs = scale_observation(seen, self._last_action, goal)
         if self._observe_trims or self._integrals is not None:  # the layout of AttitudeTaskBatch._observation
@@ -256,7 +257,8 @@ class PolicyRuntime:
         raw = self.action(self._push(obs)).tolist()
         action = [min(max(x, -1.0), 1.0) for x in raw]  # a NaN stays NaN
         if not all(-1.0 <= x <= 1.0 for x in action):
-            raise ActionError(f"the policy's action {raw} is not finite")
+            self.reset()  # the window and trims hold this step already: start the next call afresh
+            raise ActionError(f"the policy's action {raw} is not finite (the runtime was reset)")
         self._last_action = action
         command = action_list_to_command(action)  # within the actuators' travel for actions in [-1, 1]
         if self._trim is not None:

@@ -17,6 +17,8 @@ sideslip RMSE in turbulence; it is meant to be learned beside (``TaskConfig.rudd
 | pitch | elevator += integral of fraction q_s k_pitch_i (pitch - pitch_cmd) |
 | sideslip (optional) | rudder += integral of fraction q_s (k_beta / rudder_time_s) beta |
 
+``integrate`` wants a positive, finite control interval: a NaN would stay in the trims for good.
+
 Two ways to use them: ``IntegralTrim`` wraps any controller after the fact; a policy trained with
 ``TaskConfig.integral_trim`` learns beside them and observes their values (``jsbsim_env.task``,
 ``training.policy.PolicyRuntime``), both through ``TrimIntegrator``.
@@ -24,6 +26,7 @@ Two ways to use them: ``IntegralTrim`` wraps any controller after the fact; a po
 
 from __future__ import annotations
 
+import math
 from dataclasses import fields
 
 import numpy as np
@@ -49,7 +52,7 @@ class TrimIntegrator:
     def __init__(self, fraction: float, schedule: GainSchedule | None = None, rudder_time_s: float = 0.0):
         if not 0.0 < fraction <= 2.0:
             raise ValueError(f"integral trim fraction must lie in (0, 2], got {fraction}")
-        if not (rudder_time_s == 0.0 or 0.5 <= rudder_time_s <= 100.0):
+        if not (rudder_time_s == 0.0 or 0.5 <= rudder_time_s <= 100.0):  # as task.check_trim_settings
             raise ValueError(f"rudder trim time constant must be 0 (no rudder trim) or lie in [0.5, 100] s, "
                              f"got {rudder_time_s}")
         self.fraction = float(fraction)
@@ -69,6 +72,8 @@ class TrimIntegrator:
     def integrate(self, dt_s: float, measurement, goal) -> list[float]:
         """One control interval of integration on a measured state (``core.STATE_NAMES``) and goal
         (roll, pitch in rad, ...); returns the trims (deg)."""
+        if not 0.0 < dt_s < math.inf:
+            raise ValueError(f"control interval must be positive and finite, got {dt_s} s")
         altitude, eas = float(measurement[0]), float(measurement[6])
         q_s = (DESIGN_EAS_MPS / max(eas, MIN_EAS_FOR_SCALING_MPS)) ** 2
         k = self.fraction * q_s * dt_s
@@ -96,7 +101,8 @@ class TrimIntegrator:
 
 
 class IntegralTrim:
-    """``controller`` with integral trim on roll and pitch (module docstring) added after the fact;
+    """``controller`` with integral trim on roll and pitch, and sideslip with ``rudder_time_s`` > 0
+    (module docstring), added after the fact;
     shares the ``AttitudeController`` interface."""
 
     def __init__(self, controller: AttitudeController, fraction: float = 0.5, schedule: GainSchedule | None = None,
