@@ -138,6 +138,7 @@ class TrainConfig:
             config.env.error_integral_decay = 0.0
             config.env.integral_trim = 0.0
             config.env.rudder_trim_s = 0.0
+            config.env.trims_in_surfaces = True
             config.env.sideslip_weight = 1.0
             config.env.external_throttle = 0.0
         elif name != "default":
