@@ -7,6 +7,7 @@ from dataclasses import astuple
 import numpy as np
 import pytest
 
+from jsbsim_env.controllers.goal_trim import GoalTrim
 from jsbsim_env.controllers.integral_trim import IntegralTrim
 from jsbsim_env.controllers.pid import SURFACE_INTEGRATOR_LIMIT_DEG, PIDAttitudeController
 from jsbsim_env.missions import RouteConfig, fly_route
@@ -123,3 +124,52 @@ def test_a_rudder_trim_needs_hidden_integral_trims(fraction, observe):
 
     with pytest.raises(ValueError, match="a rudder trim"):
         TaskConfig(integral_trim=fraction, observe_trims=observe, rudder_trim_s=2.0)
+
+
+def test_goal_trim_removes_a_controllers_steady_errors_on_the_route():
+    config = RouteConfig(altitude_m=1000.0, duration_s=200.0)
+    alone = steady_state_errors(fly_route(_ProportionalOnly(), config), 60.0)
+    trimmed = steady_state_errors(fly_route(GoalTrim(_ProportionalOnly(), 5.0), config), 60.0)
+    assert alone["pitch_deg"] > 0.2 and trimmed["pitch_deg"] < 0.3 * alone["pitch_deg"]
+    assert alone["roll_deg"] > 0.1 and trimmed["roll_deg"] < 0.5 * alone["roll_deg"]
+
+
+class _Recorder(_Offset):
+    """Holds a fixed command and remembers the setpoints it was given."""
+
+    def __init__(self):
+        super().__init__([0.0, 0.0, 0.0, 0.5])
+        self.setpoints = []
+
+    def update(self, dt_s, measurement, setpoint):
+        self.setpoints.append(np.array(setpoint, dtype=float))
+        return super().update(dt_s, measurement, setpoint)
+
+
+def test_goal_trim_moves_the_goal_toward_a_small_error_only_and_within_its_limit():
+    recorder = _Recorder()
+    trim = GoalTrim(recorder, time_constant_s=2.0, limit_deg=1.5, active_below_deg=1.0)
+    level = MEASUREMENT.copy()
+    level[2] = 0.0
+    goal = np.array([math.radians(0.5), 0.0, 10.0])  # roll 0.5 deg below its goal: integrate
+    for _ in range(3):
+        trim.update(0.04, level, goal)
+    assert recorder.setpoints[0].tolist() == goal.tolist()  # nothing integrated before the first step
+    assert trim.offset_deg[0] == pytest.approx(3 * 0.04 / 2.0 * 0.5) and trim.offset_deg[1] == 0.0
+    assert recorder.setpoints[-1][0] > goal[0] and recorder.setpoints[-1][2] == 10.0  # EAS passes unchanged
+    far = np.array([math.radians(5.0), 0.0, 10.0])  # a goal step, not a steady offset: no integration
+    before = trim.offset_deg.copy()
+    trim.update(0.04, level, far)
+    assert np.array_equal(trim.offset_deg, before)
+    for _ in range(10_000):
+        trim.update(0.04, level, goal)
+    assert trim.offset_deg[0] == pytest.approx(1.5)  # held at its limit
+    trim.reset()
+    assert trim.offset_deg.tolist() == [0.0, 0.0]
+
+
+@pytest.mark.parametrize("kwargs", [{"time_constant_s": 0.0}, {"time_constant_s": float("nan")}, {"limit_deg": 0.0},
+                                    {"active_below_deg": -1.0}])
+def test_goal_trim_settings_outside_their_range_are_refused(kwargs):
+    with pytest.raises(ValueError, match="goal trim"):
+        GoalTrim(_Offset([0, 0, 0, 0.5]), **kwargs)
