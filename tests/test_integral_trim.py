@@ -68,11 +68,13 @@ class _ProportionalOnly(PIDAttitudeController):
         return command + np.array([1.0, 1.0, 0.0, 0.0])
 
 
-def test_it_removes_a_controllers_steady_errors_on_the_route():
+@pytest.mark.parametrize(("wrap", "pitch_share"), [(lambda c: IntegralTrim(c, 0.5), 0.5),
+                                                   (lambda c: GoalTrim(c, 5.0), 0.3)], ids=["surfaces", "goals"])
+def test_it_removes_a_controllers_steady_errors_on_the_route(wrap, pitch_share):
     config = RouteConfig(altitude_m=1000.0, duration_s=200.0)
     alone = steady_state_errors(fly_route(_ProportionalOnly(), config), 60.0)
-    trimmed = steady_state_errors(fly_route(IntegralTrim(_ProportionalOnly(), 0.5), config), 60.0)
-    assert alone["pitch_deg"] > 0.2 and trimmed["pitch_deg"] < 0.5 * alone["pitch_deg"]
+    trimmed = steady_state_errors(fly_route(wrap(_ProportionalOnly()), config), 60.0)
+    assert alone["pitch_deg"] > 0.2 and trimmed["pitch_deg"] < pitch_share * alone["pitch_deg"]
     assert alone["roll_deg"] > 0.1 and trimmed["roll_deg"] < 0.5 * alone["roll_deg"]
 
 
@@ -124,14 +126,6 @@ def test_a_rudder_trim_needs_hidden_integral_trims(fraction, observe):
 
     with pytest.raises(ValueError, match="a rudder trim"):
         TaskConfig(integral_trim=fraction, observe_trims=observe, rudder_trim_s=2.0)
-
-
-def test_goal_trim_removes_a_controllers_steady_errors_on_the_route():
-    config = RouteConfig(altitude_m=1000.0, duration_s=200.0)
-    alone = steady_state_errors(fly_route(_ProportionalOnly(), config), 60.0)
-    trimmed = steady_state_errors(fly_route(GoalTrim(_ProportionalOnly(), 5.0), config), 60.0)
-    assert alone["pitch_deg"] > 0.2 and trimmed["pitch_deg"] < 0.3 * alone["pitch_deg"]
-    assert alone["roll_deg"] > 0.1 and trimmed["roll_deg"] < 0.5 * alone["roll_deg"]
 
 
 class _Recorder(_Offset):
