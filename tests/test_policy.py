@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 import torch
 
+from jsbsim_env.controllers.goal_trim import GoalTrim
 from jsbsim_env.task import (
     OBS_OFFSET,
     OBS_SCALE,
@@ -18,7 +19,7 @@ from jsbsim_env.task import (
 )
 from training.checkpoint import atomic_save, checked_load
 from training.config import TrainConfig
-from training.policy import PolicyFileError, PolicyRuntime, export_onnx, load_policy
+from training.policy import PolicyFileError, PolicyRuntime, export_onnx, load_policy, policy_digest, set_goal_trim
 from training.trainer import Trainer
 
 
@@ -106,10 +107,48 @@ def test_a_nan_measurement_is_a_clear_error_not_a_command(policy_file, backend):
     assert runtime._last_action is None and runtime._trim.trim_deg == [0.0, 0.0]  # reset: the next call starts afresh
 
 
+def test_the_runtimes_goal_trim_is_goal_trim_around_the_policy(tmp_path):
+    """A policy file with ``goal_trim_s`` flies as ``GoalTrim`` around the same policy without it."""
+    c = TrainConfig(seed=3)
+    c.env.num_envs, c.buffer.capacity, c.log.progress = 1, 10, False
+    trainer = Trainer(c, tmp_path / "run")
+    with_goal_trim, without = tmp_path / "with.pt", tmp_path / "without.pt"
+    trainer.save_policy(with_goal_trim, {"return_norm": 0.0})
+    c.env.goal_trim_s = 0.0
+    trainer.save_policy(without, {"return_norm": 0.0})
+    runtime = PolicyRuntime(with_goal_trim, backend="torch")
+    wrapped = GoalTrim(PolicyRuntime(without, backend="torch"), TrainConfig().env.goal_trim_s)
+    assert runtime.meta["goal_trim_s"] == 5.0 and load_policy(without)[1]["goal_trim_s"] == 0.0
+    rng = np.random.default_rng(0)
+    base = np.array([5000.0, 0, 0, 0, 0, 0, 10.0, 0, 0, 0, 0, 0, 0.5])
+    goal = np.array([0.004, -0.003, 10.0])  # a fraction of a degree off: the goal trim integrates
+    for _ in range(30):
+        measurement = base + rng.normal(size=13) * 1e-3
+        np.testing.assert_array_equal(runtime.act(measurement, goal, 0.04), wrapped.update(0.04, measurement, goal))
+    assert np.abs(wrapped.offset_deg).min() > 0.0
+    with pytest.raises(ValueError, match="control interval"):
+        runtime.act(base, goal)
+
+
+def test_set_goal_trim_rewrites_only_that_setting(policy_file, tmp_path):
+    path, _ = policy_file
+    copy = tmp_path / "policy.pt"
+    copy.write_bytes(path.read_bytes())
+    set_goal_trim(copy, 8.0)
+    before, after = checked_load(path), checked_load(copy)
+    assert load_policy(copy)[1]["goal_trim_s"] == 8.0
+    assert {k for k in before if k != "actor" and before[k] != after[k]} == {"goal_trim_s"}
+    digest = policy_digest(copy)
+    with pytest.raises(ValueError, match="goal trim time constant"):
+        set_goal_trim(copy, 0.01)
+    assert policy_digest(copy) == digest  # a refused setting leaves the file as it was
+
+
 @pytest.mark.parametrize(("settings", "problem"), [({"integral_trim": 0.5, "observe_trims": True, "rudder_trim_s": 4.0},
                                                      "room for two trims"),
                                                     ({"integral_trim": 0.5, "observe_trims": False,
-                                                      "rudder_trim_s": 0.1}, "rudder_trim_s must be 0")])
+                                                      "rudder_trim_s": 0.1}, "rudder_trim_s must be 0"),
+                                                    ({"goal_trim_s": 0.1}, "goal trim time constant")])
 def test_a_policy_file_with_trim_settings_that_cannot_go_together_is_refused(policy_file, tmp_path, settings, problem):
     path, _ = policy_file
     data = checked_load(path)
@@ -199,6 +238,7 @@ def test_runtime_builds_the_environments_observation(tmp_path, decay, trim, obse
     c.env.num_envs, c.buffer.capacity, c.log.progress = 1, 10, False
     c.env.error_integral_decay, c.env.integral_trim, c.env.observe_trims = decay, trim, observe
     c.env.trims_in_surfaces, c.env.rudder_trim_s = in_surfaces, rudder_s
+    c.env.goal_trim_s = 0.0  # flight-time only: the environment's goals are not moved
     path = tmp_path / "policy.pt"
     Trainer(c, tmp_path / "run").save_policy(path, {"return_norm": 0.0})
     from_env, from_measurement = PolicyRuntime(path, backend="torch"), PolicyRuntime(path, backend="torch")

@@ -40,6 +40,9 @@ class EnvSettings:
                                        "while they move)")
     rudder_trim_s: float = _f(0.0, "time constant (s) of a rudder trim on sideslip beside the integral trims, at "
                                    "integral_trim times the PID's sideslip gain over it (hidden trims only; 0: none)")
+    goal_trim_s: float = _f(5.0, "time constant (s) of the goal trim the policy flies with, recorded in the policy "
+                                 "file and applied by PolicyRuntime (jsbsim_env.controllers.goal_trim; training "
+                                 "episodes go without: their goals change every 3-10 s). 0: none")
     sideslip_weight: float = _f(3.0, "training reward's sideslip penalty and its cap times this (1: SPEC Eq. 22; "
                                      "3 halved the sideslip, docs/training.md); evaluations keep Eq. 22")
     external_throttle: float = _f(0.0, "share of training episodes whose throttle a speed hold flies instead of the "
@@ -139,6 +142,7 @@ class TrainConfig:
             config.env.integral_trim = 0.0
             config.env.rudder_trim_s = 0.0
             config.env.trims_in_surfaces = True
+            config.env.goal_trim_s = 0.0
             config.env.sideslip_weight = 1.0
             config.env.external_throttle = 0.0
         elif name != "default":

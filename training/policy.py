@@ -20,6 +20,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from jsbsim_env.controllers.goal_trim import GoalIntegrator
 from jsbsim_env.controllers.integral_trim import TrimIntegrator
 from jsbsim_env.task import (
     ActionError,
@@ -32,7 +33,7 @@ from jsbsim_env.task import (
     scale_observation,
     without_trims,
 )
-from training.checkpoint import checked_load, non_finite_entries
+from training.checkpoint import atomic_save, checked_load, non_finite_entries
 from training.networks import ActorNet
 
 SHIPPED_POLICY = "solar_uav_policy.pt"  # in the training package, with its ONNX export beside it
@@ -64,7 +65,8 @@ def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
     """The deterministic actor and the metadata saved with it (``Trainer.save_policy``); the metadata's
     ``error_integral_decay``, ``integral_trim`` (0 for files from before them), and ``observe_trims``
     (True before it) set the observation layout; ``trims_in_surfaces`` (True before it) what the
-    observed surface positions hold; ``rudder_trim_s`` (0 before it) the trims."""
+    observed surface positions hold; ``rudder_trim_s`` (0 before it) the trims; ``goal_trim_s`` (0
+    before it) the goal trim flown with it (``jsbsim_env.controllers.goal_trim``)."""
     path = Path(path)
     if not path.is_file():
         raise PolicyFileError(f"no policy file at {path}")
@@ -79,6 +81,9 @@ def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
         trims_in_surfaces = bool(data.get("trims_in_surfaces", True))
         rudder_trim_s = float(data.get("rudder_trim_s", 0.0))
         check_trim_settings(trim, observe_trims, rudder_trim_s)
+        goal_trim_s = float(data.get("goal_trim_s", 0.0))
+        if goal_trim_s:
+            GoalIntegrator(goal_trim_s)  # refuses a time constant out of range
         expected = observation_size(decay, trim, observe_trims)
         prefix = "module.0.module."
         state = {k[len(prefix):]: v for k, v in data["actor"].items() if k.startswith(prefix)}
@@ -96,8 +101,21 @@ def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
     actor = DeterministicActor(net).eval()
     meta = {k: v for k, v in data.items() if k != "actor"}
     meta["error_integral_decay"], meta["integral_trim"], meta["observe_trims"] = decay, trim, observe_trims
-    meta["trims_in_surfaces"], meta["rudder_trim_s"] = trims_in_surfaces, rudder_trim_s
+    meta["trims_in_surfaces"], meta["rudder_trim_s"], meta["goal_trim_s"] = trims_in_surfaces, rudder_trim_s, goal_trim_s
     return actor, meta
+
+
+def set_goal_trim(path: Path | str, time_constant_s: float) -> None:
+    """Make the policy file at ``path`` fly with goal trim of this time constant (0: none), in place
+    and atomically. The goal trim is a flight-time setting (training episodes go without it), so a
+    policy trained before the setting existed flies with it as one trained with it recorded."""
+    path = Path(path)
+    load_policy(path)  # a clear error for a missing or broken file, before anything is written
+    if time_constant_s:
+        GoalIntegrator(time_constant_s)  # refuses a time constant out of range
+    data = checked_load(path)
+    data["goal_trim_s"] = float(time_constant_s)
+    atomic_save(data, path)
 
 
 def policy_digest(path: Path | str) -> str:
@@ -169,6 +187,8 @@ class PolicyRuntime:
         self.observation_size = observation_size(decay, trim, self._observe_trims)
         self._integrals = ErrorIntegrals(decay) if decay > 0.0 else None
         self._trim = TrimIntegrator(trim, rudder_time_s=self.meta["rudder_trim_s"]) if trim > 0.0 else None
+        goal_trim_s = self.meta["goal_trim_s"]
+        self._goal_trim = GoalIntegrator(goal_trim_s) if goal_trim_s else None
         # The window, oldest row first, shifted in place each step; empty until the episode's first push.
         self._window = np.zeros((self.window, self.observation_size), dtype=np.float32)
         self._filled = False
@@ -205,6 +225,8 @@ class PolicyRuntime:
             self._integrals.reset()
         if self._trim is not None:
             self._trim.reset()
+        if self._goal_trim is not None:
+            self._goal_trim.reset()
 
     def push(self, observation: np.ndarray) -> np.ndarray:
         """Add one scaled observation; returns the window (window, observation size), oldest first."""
@@ -237,8 +259,11 @@ class PolicyRuntime:
         # One sum of plain floats is not finite if any value is not, at a fraction of np.isfinite's cost.
         if not math.isfinite(sum(measurement.tolist()) + sum(goal.tolist())):
             raise ValueError(f"measurement {measurement.tolist()} or goal {goal.tolist()} is not finite")
-        if self._trim is not None and dt_s is None:
-            raise ValueError("this policy was trained with integral trim: give act() the control interval dt_s")
+        if dt_s is None and (self._trim is not None or self._goal_trim is not None):
+            raise ValueError("this policy flies with integral or goal trim: give act() the control interval dt_s")
+        asked = goal
+        if self._goal_trim is not None:  # the goal moved by the goal trim, as GoalTrim gives it
+            goal = np.array(self._goal_trim.goal(asked))
         first = self._last_action is None
         if first:
             self._last_action = initial_last_action(measurement)
@@ -263,6 +288,8 @@ class PolicyRuntime:
         command = action_list_to_command(action)  # within the actuators' travel for actions in [-1, 1]
         if self._trim is not None:
             command = self._trim.apply(command)  # clips the trimmed surfaces to their travel
+        if self._goal_trim is not None:  # this step's error against the goal asked for moves the next goal
+            self._goal_trim.integrate(dt_s, measurement, asked)
         return np.array(command)
 
     def update(self, dt_s: float, measurement: np.ndarray, setpoint: np.ndarray) -> np.ndarray:
@@ -280,5 +307,14 @@ class PolicyRuntime:
         return np.asarray(observation, dtype=np.float32).reshape(self.observation_size)
 
 
-__all__ = ["DeterministicActor", "PolicyFileError", "PolicyRuntime", "export_onnx", "load_policy",
-           "onnx_source_digest", "policy_digest", "shipped_policy_path"]
+__all__ = [
+    "DeterministicActor",
+    "PolicyFileError",
+    "PolicyRuntime",
+    "export_onnx",
+    "load_policy",
+    "onnx_source_digest",
+    "policy_digest",
+    "set_goal_trim",
+    "shipped_policy_path",
+]

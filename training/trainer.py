@@ -189,6 +189,7 @@ class Trainer:
             "observe_trims": self.config.env.observe_trims,
             "trims_in_surfaces": self.config.env.trims_in_surfaces,
             "rudder_trim_s": self.config.env.rudder_trim_s,
+            "goal_trim_s": self.config.env.goal_trim_s,
             "frames": self.counters.frames,
             "seed": self.config.seed,
             "evaluation": evaluation,
