@@ -35,9 +35,9 @@ class EnvSettings:
                                    "as the paper). Removes the policy's steady attitude error (docs/training.md)")
     observe_trims: bool = _f(False, "show the integral trims to the policy (a policy that sees them learns to "
                                     "cancel them and they drift to their limits, docs/training.md)")
-    trims_in_surfaces: bool = _f(True, "the policy's observed positions of the trimmed surfaces include the integral "
-                                       "trims (False: the present trims taken off, so that hidden trims show only "
-                                       "while they move)")
+    trims_in_surfaces: bool = _f(False, "the policy's observed positions of the trimmed surfaces include the integral "
+                                        "trims, as measured (False: the present trims taken off, so that hidden trims "
+                                        "show only while they move; docs/training.md)")
     rudder_trim_s: float = _f(0.0, "time constant (s) of a rudder trim on sideslip beside the integral trims, at "
                                    "integral_trim times the PID's sideslip gain over it (hidden trims only; 0: none)")
     goal_trim_s: float = _f(5.0, "time constant (s) of the goal trim the policy flies with, recorded in the policy "
