@@ -53,6 +53,7 @@ def main() -> None:
     models = {s.get("aircraft_model") for s in sessions}
     if len(models) > 1:
         parser.error(f"{args.run_dir} was trained on more than one aircraft model ({sorted(map(str, models))})")
+    config = json.loads((args.run_dir / "config.json").read_text())
     SHIPPED_DIR.mkdir(parents=True, exist_ok=True)
     target = SHIPPED_DIR / SHIPPED_POLICY
     shutil.copyfile(source, target)
@@ -66,7 +67,10 @@ def main() -> None:
         "wall_clock_s": wall["to_policy_s"], "cpu_cores": cores.pop(),
         "run_wall_clock_s": wall["whole_run_s"], "run_frames": wall["frames"],
         "training_evaluation": meta["evaluation"],
-        "config": json.loads((args.run_dir / "config.json").read_text()),
+        "config": config,
+        # a flight-time setting: scripts/set_goal_trim.py may have set it after training
+        "goal_trim_s": meta["goal_trim_s"],
+        "goal_trim_set_after_training": config["env"].get("goal_trim_s", 0.0) != meta["goal_trim_s"],
         "evaluation": results,
     }
     target.with_suffix(".json").write_text(json.dumps(record, indent=2, default=float))
