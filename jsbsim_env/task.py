@@ -112,6 +112,15 @@ def scale_observation(state: np.ndarray, last_action: np.ndarray, goal: np.ndarr
     return ((raw - OBS_OFFSET) / OBS_SCALE).astype(np.float32)
 
 
+_OBS_OFFSET_LIST, _OBS_INV_SCALE_LIST = OBS_OFFSET.tolist(), (1.0 / OBS_SCALE).tolist()
+
+
+def scale_row(raw: list[float]) -> list[float]:
+    """``scale_observation`` of one measured state, last action and goal joined in a list, on plain
+    floats and with the inverse scale as the batched task multiplies (the per-step runtime's form)."""
+    return [(x - o) * k for x, o, k in zip(raw, _OBS_OFFSET_LIST, _OBS_INV_SCALE_LIST)]
+
+
 def initial_last_action(measurement: np.ndarray) -> np.ndarray:
     """The "last action" at the start of an episode: the measured actuator positions (rad, rad, rad,
     throttle) as an action, which is the trim command the aircraft starts settled on."""
@@ -291,8 +300,7 @@ class AttitudeTaskBatch:
         self._goal_rngs: list[np.random.Generator] = [np.random.default_rng() for _ in range(n)]
         self.last_actions: list[list[float]] = [[0.0] * ACTION_SIZE for _ in range(n)]
         self._sensor_noise = self.config.core.sensor_noise
-        self._obs_offset = OBS_OFFSET.tolist()
-        self._obs_inv_scale = (1.0 / OBS_SCALE).tolist()
+        self._obs_offset, self._obs_inv_scale = _OBS_OFFSET_LIST, _OBS_INV_SCALE_LIST
         decay = self.config.error_integral_decay
         self._integrals = [ErrorIntegrals(decay) for _ in range(n)] if decay > 0.0 else None
         trim, self._external_share = self.config.integral_trim, self.config.external_throttle

@@ -30,7 +30,7 @@ from jsbsim_env.task import (
     initial_last_action,
     insert_trims,
     observation_size,
-    scale_observation,
+    scale_row,
     without_trims,
 )
 from training.checkpoint import atomic_save, checked_load, non_finite_entries
@@ -255,30 +255,27 @@ class PolicyRuntime:
         (``core.STATE_NAMES``) and goal (roll, pitch in rad, EAS in m/s); ``dt_s``, the control
         interval, is needed by a policy trained with integral trim. A measurement or goal that is
         not finite is refused (``ValueError``): the network would map it to some finite command."""
-        measurement, goal = np.asarray(measurement), np.asarray(goal)
+        # On plain floats throughout: numpy's per-call overhead would cost more than the arithmetic.
+        m, asked = np.asarray(measurement, dtype=float).tolist(), np.asarray(goal, dtype=float).tolist()
         # One sum of plain floats is not finite if any value is not, at a fraction of np.isfinite's cost.
-        if not math.isfinite(sum(measurement.tolist()) + sum(goal.tolist())):
-            raise ValueError(f"measurement {measurement.tolist()} or goal {goal.tolist()} is not finite")
+        if not math.isfinite(sum(m) + sum(asked)):
+            raise ValueError(f"measurement {m} or goal {asked} is not finite")
         if dt_s is None and (self._trim is not None or self._goal_trim is not None):
             raise ValueError("this policy flies with integral or goal trim: give act() the control interval dt_s")
-        asked = goal
-        if self._goal_trim is not None:  # the goal moved by the goal trim, as GoalTrim gives it
-            goal = np.array(self._goal_trim.goal(asked))
+        # The goal moved by the goal trim, as GoalTrim gives it.
+        g = self._goal_trim.goal(asked) if self._goal_trim is not None else asked
         first = self._last_action is None
         if first:
-            self._last_action = initial_last_action(measurement)
+            self._last_action = initial_last_action(m).tolist()
         if self._trim is not None and not first:  # as in training: the integrators start from zero with the episode
-            self._trim.integrate(dt_s, measurement, goal)
-        seen = without_trims(measurement.tolist(), self._trim.trim_deg) if self._trim_free_surfaces else measurement
-        obs = scale_observation(seen, self._last_action, goal)
-        if self._observe_trims or self._integrals is not None:  # the layout of AttitudeTaskBatch._observation
-            row = obs.tolist()
-            if self._observe_trims:
-                row = insert_trims(row, self._trim.trim_deg)
-            if self._integrals is not None:
-                row = self._integrals.extend(row)
-            obs = np.asarray(row, dtype=np.float32)
-        # On four plain floats: numpy's per-call overhead would cost more than the arithmetic here.
+            self._trim.integrate(dt_s, m, g)
+        seen = without_trims(m, self._trim.trim_deg) if self._trim_free_surfaces else m
+        row = scale_row(seen + list(self._last_action) + g)  # the layout of AttitudeTaskBatch._observation
+        if self._observe_trims:
+            row = insert_trims(row, self._trim.trim_deg)
+        if self._integrals is not None:
+            row = self._integrals.extend(row)
+        obs = np.array(row, dtype=np.float32)
         raw = self.action(self._push(obs)).tolist()
         action = [min(max(x, -1.0), 1.0) for x in raw]  # a NaN stays NaN
         if not all(-1.0 <= x <= 1.0 for x in action):
@@ -289,7 +286,7 @@ class PolicyRuntime:
         if self._trim is not None:
             command = self._trim.apply(command)  # clips the trimmed surfaces to their travel
         if self._goal_trim is not None:  # this step's error against the goal asked for moves the next goal
-            self._goal_trim.integrate(dt_s, measurement, asked)
+            self._goal_trim.integrate(dt_s, m, asked)
         return np.array(command)
 
     def update(self, dt_s: float, measurement: np.ndarray, setpoint: np.ndarray) -> np.ndarray:
