@@ -27,9 +27,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from jsbsim_env.controllers.integral_trim import TrimIntegrator
+from jsbsim_env.controllers.integral_trim import TrimIntegrator, check_rudder_time
 from jsbsim_env.controllers.pid import GainSchedule, PIDAttitudeController
-from jsbsim_env.core import N_STATE, SCALED_TERMS, CoreConfig, FlightCore, envelope_code, termination_reason
+from jsbsim_env.core import (
+    N_STATE,
+    SCALED_TERMS,
+    STATE_NAMES,
+    CoreConfig,
+    FlightCore,
+    envelope_code,
+    termination_reason,
+)
 
 GOAL_NAMES = ("roll_cmd_rad", "pitch_cmd_rad", "airspeed_eas_cmd_mps")
 GOAL_LOW = np.array([math.radians(-5.0), math.radians(-10.0), 8.0])
@@ -132,7 +140,7 @@ REWARD_TERMS = ("penalty_roll", "penalty_pitch", "penalty_airspeed", "penalty_be
 # The state elements the reward depends on (``core.STATE_NAMES`` order): roll, pitch, V_eas, sideslip.
 ACHIEVED_INDEX = (1, 2, 6, 8)
 EAS_INDEX = ACHIEVED_INDEX[2]
-AILERON_INDEX = 9  # aileron, elevator then rudder position (rad) in ``core.STATE_NAMES``
+AILERON_INDEX = STATE_NAMES.index("aileron_rad")  # then elevator and rudder position (rad)
 # Errors at which each penalty of Eq. 22 saturates (rad, rad, m/s): beyond them a goal error
 # no longer changes the reward.
 PENALTY_SATURATION = (math.radians(1.5), math.radians(1.8), 1.5)
@@ -217,8 +225,7 @@ def check_trim_settings(integral_trim: float, observe_trims: bool, rudder_trim_s
     """Raise ``ValueError`` naming the problem if the integral trim settings cannot go together."""
     if not 0.0 <= integral_trim <= 2.0:
         raise ValueError(f"integral_trim must lie in [0, 2], got {integral_trim}")
-    if not (rudder_trim_s == 0.0 or 0.5 <= rudder_trim_s <= 100.0):
-        raise ValueError(f"rudder_trim_s must be 0 (no rudder trim) or lie in [0.5, 100] s, got {rudder_trim_s}")
+    check_rudder_time(rudder_trim_s)
     if rudder_trim_s and (not integral_trim or observe_trims):
         raise ValueError("a rudder trim (rudder_trim_s > 0) needs integral trim (integral_trim > 0) with the "
                          "trims hidden (observe_trims False): the observation has room for two trims")
@@ -300,7 +307,6 @@ class AttitudeTaskBatch:
         self._goal_rngs: list[np.random.Generator] = [np.random.default_rng() for _ in range(n)]
         self.last_actions: list[list[float]] = [[0.0] * ACTION_SIZE for _ in range(n)]
         self._sensor_noise = self.config.core.sensor_noise
-        self._obs_offset, self._obs_inv_scale = _OBS_OFFSET_LIST, _OBS_INV_SCALE_LIST
         decay = self.config.error_integral_decay
         self._integrals = [ErrorIntegrals(decay) for _ in range(n)] if decay > 0.0 else None
         trim, self._external_share = self.config.integral_trim, self.config.external_throttle
@@ -431,7 +437,7 @@ class AttitudeTaskBatch:
         noise = self.noise[i] + _NO_EXTRA_NOISE
         if self.external_throttle[i]:  # speed-free: the EAS goal is the measured EAS
             raw[-1] = self.states[i][EAS_INDEX] + self.noise[i][EAS_INDEX]
-        obs = [(x + n - o) * k for x, n, o, k in zip(raw, noise, self._obs_offset, self._obs_inv_scale)]
+        obs = [(x + n - o) * k for x, n, o, k in zip(raw, noise, _OBS_OFFSET_LIST, _OBS_INV_SCALE_LIST)]
         if self._observe_trims:
             obs = insert_trims(obs, self._trims[i].trim_deg)
         if self._integrals is not None:
@@ -443,7 +449,7 @@ class AttitudeTaskBatch:
         """The critics' states (see ``CRITIC_STATE_BASE``), N x ``config.critic_state_size`` float32
         (non-finite values of an ended episode as 0)."""
         rows = []
-        offset, inv_scale = self._obs_offset, self._obs_inv_scale
+        offset, inv_scale = _OBS_OFFSET_LIST, _OBS_INV_SCALE_LIST
         for i, core in enumerate(self.cores):
             true = [(x - o) * k for x, o, k in zip(self.states[i], offset, inv_scale)]
             tail = self._obs_lists[i][OBS_SIZE - 3:]  # the trims and error integrals where configured, the goals

@@ -192,7 +192,7 @@ class PolicyRuntime:
         # The window, oldest row first, shifted in place each step; empty until the episode's first push.
         self._window = np.zeros((self.window, self.observation_size), dtype=np.float32)
         self._filled = False
-        self._last_action: list[float] | np.ndarray | None = None  # fed back into the next observation
+        self._last_action: list[float] | None = None  # fed back into the next observation
         if backend == "onnx":
             import onnxruntime as ort
 
@@ -270,7 +270,7 @@ class PolicyRuntime:
         if self._trim is not None and not first:  # as in training: the integrators start from zero with the episode
             self._trim.integrate(dt_s, m, g)
         seen = without_trims(m, self._trim.trim_deg) if self._trim_free_surfaces else m
-        row = scale_row(seen + list(self._last_action) + g)  # the layout of AttitudeTaskBatch._observation
+        row = scale_row(seen + self._last_action + g)  # the layout of AttitudeTaskBatch._observation
         if self._observe_trims:
             row = insert_trims(row, self._trim.trim_deg)
         if self._integrals is not None:

@@ -24,8 +24,9 @@ import math
 import numpy as np
 
 from jsbsim_env.controllers.base import AttitudeController
+from jsbsim_env.core import STATE_NAMES
 
-_ROLL, _PITCH = 1, 2  # in ``core.STATE_NAMES``
+_ROLL, _PITCH = STATE_NAMES.index("roll_rad"), STATE_NAMES.index("pitch_rad")
 
 
 class GoalIntegrator:

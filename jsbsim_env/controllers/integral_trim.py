@@ -39,10 +39,17 @@ from jsbsim_env.controllers.pid import (
     DesignPoint,
     GainSchedule,
 )
-from jsbsim_env.core import COMMAND_HIGH, COMMAND_LOW
+from jsbsim_env.core import COMMAND_HIGH, COMMAND_LOW, STATE_NAMES
 
 _SURFACE_LOW, _SURFACE_HIGH = COMMAND_LOW[:3].tolist(), COMMAND_HIGH[:3].tolist()
-_ROLL, _PITCH, _BETA = 1, 2, 8  # in ``core.STATE_NAMES``
+_ROLL, _PITCH, _BETA = (STATE_NAMES.index(n) for n in ("roll_rad", "pitch_rad", "beta_rad"))
+
+
+def check_rudder_time(rudder_time_s: float) -> None:
+    """Raise ``ValueError`` unless the rudder trim's time constant is 0 (none) or in [0.5, 100] s."""
+    if not (rudder_time_s == 0.0 or 0.5 <= rudder_time_s <= 100.0):
+        raise ValueError(f"rudder trim time constant: rudder_trim_s must be 0 (no rudder trim) or lie in "
+                         f"[0.5, 100] s, got {rudder_time_s}")
 
 
 class TrimIntegrator:
@@ -52,9 +59,7 @@ class TrimIntegrator:
     def __init__(self, fraction: float, schedule: GainSchedule | None = None, rudder_time_s: float = 0.0):
         if not 0.0 < fraction <= 2.0:
             raise ValueError(f"integral trim fraction must lie in (0, 2], got {fraction}")
-        if not (rudder_time_s == 0.0 or 0.5 <= rudder_time_s <= 100.0):  # as task.check_trim_settings
-            raise ValueError(f"rudder trim time constant must be 0 (no rudder trim) or lie in [0.5, 100] s, "
-                             f"got {rudder_time_s}")
+        check_rudder_time(rudder_time_s)
         self.fraction = float(fraction)
         self.rudder_time_s = float(rudder_time_s)
         schedule = schedule or GainSchedule()
@@ -132,4 +137,4 @@ class IntegralTrim:
         return np.clip(command, COMMAND_LOW, COMMAND_HIGH)
 
 
-__all__ = ["IntegralTrim", "TrimIntegrator"]
+__all__ = ["IntegralTrim", "TrimIntegrator", "check_rudder_time"]
