@@ -146,24 +146,36 @@ AILERON_INDEX = STATE_NAMES.index("aileron_rad")  # then elevator and rudder pos
 PENALTY_SATURATION = (math.radians(1.5), math.radians(1.8), 1.5)
 
 
-def reward_terms(state, goal, sideslip_weight: float = 1.0) -> list[float]:
+def _penalty(x: float, cap: float, tail: float) -> float:
+    """One penalty of Eq. 22, ``x`` before its cap: capped, plus ``tail`` times what lies beyond."""
+    return min(x, cap) + tail * max(x - cap, 0.0)
+
+
+def reward_terms(state, goal, sideslip_weight: float = 1.0, penalty_tail: float = 0.0) -> list[float]:
     """SPEC Eq. 22 for one true state (``core.STATE_NAMES`` order) and goal: the four penalties
     (``REWARD_TERMS``, errors in degrees and m/s) and then the reward, 1 minus their sum;
-    ``sideslip_weight`` scales the sideslip penalty and its cap (``TaskConfig``)."""
-    p_roll = min(abs(state[1] - goal[0]) * _DEG / 5.0, 0.3)
-    p_pitch = min(abs(state[2] - goal[1]) * _DEG / 6.0, 0.3)
-    p_speed = min(abs(state[6] - goal[2]) / 5.0, 0.3)
-    p_beta = sideslip_weight * min(abs(state[8]) * _DEG / 30.0, 0.1)
+    ``sideslip_weight`` scales the sideslip penalty and its cap, ``penalty_tail`` keeps that share
+    of each penalty's slope beyond its cap (``TaskConfig``; 0 and 1 give Eq. 22)."""
+    p_roll = _penalty(abs(state[1] - goal[0]) * _DEG / 5.0, 0.3, penalty_tail)
+    p_pitch = _penalty(abs(state[2] - goal[1]) * _DEG / 6.0, 0.3, penalty_tail)
+    p_speed = _penalty(abs(state[6] - goal[2]) / 5.0, 0.3, penalty_tail)
+    p_beta = sideslip_weight * _penalty(abs(state[8]) * _DEG / 30.0, 0.1, penalty_tail)
     return [p_roll, p_pitch, p_speed, p_beta, 1.0 - (p_roll + p_pitch + p_speed + p_beta)]
 
 
-def reward_from_achieved(achieved, goal, sideslip_weight: float = 1.0):
+def _penalties(x, cap: float, tail: float):
+    """``_penalty`` on arrays (numpy or torch)."""
+    capped = x.clip(max=cap)
+    return capped + tail * (x - capped) if tail else capped
+
+
+def reward_from_achieved(achieved, goal, sideslip_weight: float = 1.0, penalty_tail: float = 0.0):
     """SPEC Eq. 22 on arrays (numpy or torch): ``achieved`` (..., 4) in ``ACHIEVED_INDEX`` order and
     ``goal`` (..., 3) -> reward (...). The vectorised twin of ``reward_terms``."""
-    p_roll = (abs(achieved[..., 0] - goal[..., 0]) * (_DEG / 5.0)).clip(max=0.3)
-    p_pitch = (abs(achieved[..., 1] - goal[..., 1]) * (_DEG / 6.0)).clip(max=0.3)
-    p_speed = (abs(achieved[..., 2] - goal[..., 2]) / 5.0).clip(max=0.3)
-    p_beta = sideslip_weight * (abs(achieved[..., 3]) * (_DEG / 30.0)).clip(max=0.1)
+    p_roll = _penalties(abs(achieved[..., 0] - goal[..., 0]) * (_DEG / 5.0), 0.3, penalty_tail)
+    p_pitch = _penalties(abs(achieved[..., 1] - goal[..., 1]) * (_DEG / 6.0), 0.3, penalty_tail)
+    p_speed = _penalties(abs(achieved[..., 2] - goal[..., 2]) / 5.0, 0.3, penalty_tail)
+    p_beta = sideslip_weight * _penalties(abs(achieved[..., 3]) * (_DEG / 30.0), 0.1, penalty_tail)
     return 1.0 - (p_roll + p_pitch + p_speed + p_beta)
 
 
@@ -186,6 +198,9 @@ class TaskConfig:
     ``rudder_trim_s`` T > 0 adds a rudder trim on sideslip beside them, at ``integral_trim`` times
     the PID's sideslip gain over T (``TrimIntegrator``); with hidden trims only.
     ``sideslip_weight`` multiplies Eq. 22's sideslip penalty and its cap (1: the paper's reward).
+    ``penalty_tail`` keeps that share of each penalty's slope beyond its cap (0: the paper's reward).
+    Eq. 22 pays nothing for a pitch error of 12 deg that it does not pay for 2 deg, so a policy
+    gains nothing by moving towards a goal it cannot reach within the cap.
     ``external_throttle`` is the share of episodes in which a speed hold (the PID's airspeed loop)
     flies the throttle instead of the policy, as TECS does on a route. Those episodes are speed-free
     for the policy, as a route flown with ``RouteConfig.attitude_eas_demand = "measured"`` is: its
@@ -201,6 +216,7 @@ class TaskConfig:
     trims_in_surfaces: bool = True  # the observed surface positions include the trims, as measured
     rudder_trim_s: float = 0.0  # time constant of a rudder trim on sideslip; 0: none
     sideslip_weight: float = 1.0
+    penalty_tail: float = 0.0
     external_throttle: float = 0.0  # share of episodes; 0: the policy always flies the throttle, as the paper
 
     def __post_init__(self):
@@ -209,6 +225,8 @@ class TaskConfig:
         check_trim_settings(self.integral_trim, self.observe_trims, self.rudder_trim_s)
         if not 0.0 <= self.sideslip_weight <= 10.0:
             raise ValueError(f"sideslip_weight must lie in [0, 10], got {self.sideslip_weight}")
+        if not 0.0 <= self.penalty_tail <= 1.0:
+            raise ValueError(f"penalty_tail must lie in [0, 1], got {self.penalty_tail}")
         if not 0.0 <= self.external_throttle <= 1.0:
             raise ValueError(f"external_throttle must lie in [0, 1], got {self.external_throttle}")
 
@@ -317,6 +335,7 @@ class AttitudeTaskBatch:
         self._trim_free_surfaces = self._trims is not None and not self.config.trims_in_surfaces
         self._speed_holds = [PIDAttitudeController(schedule) for _ in range(n)] if self._external_share > 0.0 else None
         self._sideslip_weight = self.config.sideslip_weight
+        self._penalty_tail = self.config.penalty_tail
         self.external_throttle = [False] * n  # whether the speed hold flies each aircraft's throttle
         self._obs_lists: list[list[float]] = [[0.0] * self.config.observation_size for _ in range(n)]
         self._recent_actions: list[list[float]] = [[0.0] * (RECENT_ACTIONS * ACTION_SIZE) for _ in range(n)]
@@ -387,7 +406,7 @@ class AttitudeTaskBatch:
             goal = self._goal_lists[i]
             if external:  # speed-free: no airspeed term
                 goal = [goal[0], goal[1], state[EAS_INDEX]]
-            t = reward_terms(state, goal, self._sideslip_weight)
+            t = reward_terms(state, goal, self._sideslip_weight, self._penalty_tail)
             if code and not math.isfinite(t[4]):
                 t = [0.0] * 5
             terms.append(t)

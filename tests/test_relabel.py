@@ -51,27 +51,51 @@ def test_vectorised_reward_matches_the_per_aircraft_one():
         terms, weighted = reward_terms(state, goal), reward_terms(state, goal, 3.0)
         assert weighted[:3] == terms[:3] and weighted[3] == pytest.approx(3.0 * terms[3])
         assert reward_from_achieved(achieved, goal, 3.0) == pytest.approx(weighted[4], abs=1e-12)
+        # A penalty tail changes nothing within the caps and agrees between the two as well.
+        tailed = reward_terms(state, goal, 3.0, 0.2)
+        assert reward_from_achieved(achieved, goal, 3.0, 0.2) == pytest.approx(tailed[4], abs=1e-12)
+        assert float(reward_from_achieved(torch.tensor(achieved), torch.tensor(goal), 3.0, 0.2)) == \
+            pytest.approx(tailed[4], abs=1e-9)
+        assert tailed[4] <= weighted[4]
 
 
-def test_a_sideslip_weight_trains_on_its_reward_and_evaluates_on_eq_22():
-    from jsbsim_env.task import TaskConfig
+def test_a_penalty_tail_charges_errors_beyond_the_cap():
+    state, goal = np.zeros(N_STATE), np.array([0.0, math.radians(-10.0), 10.0])
+    state[6] = 10.0
+    rewards = {}
+    for pitch_deg in (0.0, 1.5, 2.0, 12.0):
+        state[2] = goal[1] + math.radians(pitch_deg)
+        rewards[pitch_deg] = (reward_terms(state, goal)[4], reward_terms(state, goal, penalty_tail=0.1)[4])
+    assert rewards[2.0][0] == rewards[12.0][0] < rewards[0.0][0]  # Eq. 22: 12 deg costs no more than 2 deg
+    assert rewards[12.0][1] < rewards[2.0][1] < rewards[2.0][0]  # the tail: it does
+    assert rewards[1.5][1] == rewards[1.5][0]  # within the cap (1.8 deg of pitch) as Eq. 22
+    assert rewards[2.0][0] - rewards[12.0][1] == pytest.approx(0.1 * (12.0 / 6.0 - 0.3))
+    # A tail of 1 is the uncapped linear penalty.
+    assert reward_terms(state, goal, penalty_tail=1.0)[1] == pytest.approx(12.0 / 6.0)
+    with pytest.raises(ValueError, match="penalty_tail"):
+        TaskConfig(penalty_tail=1.5)
+
+
+def test_a_reshaped_reward_trains_on_its_reward_and_evaluates_on_eq_22():
     from training.trainer import evaluate_policy
 
-    env = make_env(num_envs=2, config=TaskConfig(sideslip_weight=3.0), seed=5)
+    shaped = TaskConfig(sideslip_weight=3.0, penalty_tail=0.2)
+    env = make_env(num_envs=2, config=shaped, seed=5)
     torch.manual_seed(0)
     data = env.rollout(30, break_when_any_done=False).reshape(-1)
     achieved, goal = data["next", "achieved"].double().numpy(), _goals(data["observation"])
     np.testing.assert_allclose(data["next", "reward"].reshape(-1).double().numpy(),
-                               reward_from_achieved(achieved, goal, 3.0), atol=1e-5)
-    relabelled = relabel_goals(data, 1.0, 2.0, torch.Generator().manual_seed(0), sideslip_weight=3.0)
+                               reward_from_achieved(achieved, goal, 3.0, 0.2), atol=1e-5)
+    relabelled = relabel_goals(data, 1.0, 2.0, torch.Generator().manual_seed(0), sideslip_weight=3.0,
+                               penalty_tail=0.2)
     new_goal = _goals(relabelled["observation"])
     np.testing.assert_allclose(relabelled["next", "reward"].reshape(-1).double().numpy(),
-                               reward_from_achieved(achieved, new_goal, 3.0), atol=1e-5)
+                               reward_from_achieved(achieved, new_goal, 3.0, 0.2), atol=1e-5)
     # The training-time evaluation scores with Eq. 22 whatever the run trains on.
     def policy(td):  # neutral surfaces and half throttle, the same in both evaluations
         return td.set("action", torch.zeros(td.shape[0], 4))
 
-    weighted = evaluate_policy(policy, TaskConfig(sideslip_weight=3.0), episodes=2, max_steps=20, seed=3)
+    weighted = evaluate_policy(policy, shaped, episodes=2, max_steps=20, seed=3)
     plain = evaluate_policy(policy, TaskConfig(), episodes=2, max_steps=20, seed=3)
     assert weighted["return_norm"] == plain["return_norm"]
 

@@ -45,6 +45,8 @@ class EnvSettings:
                                  "episodes go without: their goals change every 3-10 s). 0: none")
     sideslip_weight: float = _f(3.0, "training reward's sideslip penalty and its cap times this (1: SPEC Eq. 22; "
                                      "3 halved the sideslip, docs/training.md); evaluations keep Eq. 22")
+    penalty_tail: float = _f(0.0, "training reward: share of each Eq. 22 penalty's slope kept beyond its cap, so that a "
+                                  "large error still costs more than a small one (0: SPEC Eq. 22); evaluations keep Eq. 22")
     external_throttle: float = _f(0.0, "share of training episodes whose throttle a speed hold flies instead of the "
                                        "policy, as TECS does on a route (0: none, as the paper)")
 
@@ -144,6 +146,7 @@ class TrainConfig:
             config.env.trims_in_surfaces = True
             config.env.goal_trim_s = 0.0
             config.env.sideslip_weight = 1.0
+            config.env.penalty_tail = 0.0
             config.env.external_throttle = 0.0
         elif name != "default":
             raise ValueError(f"unknown preset {name!r}: use one of {PRESETS}")
