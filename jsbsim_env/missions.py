@@ -2,7 +2,8 @@
 
 A mission starts in trimmed level flight at the route's altitude, at the first waypoint, heading
 along the first leg, and flies the closed route of ``RouteConfig.waypoints_ne_m`` (by default a
-rectangle of ``leg_north_m`` x ``leg_east_m``) until ``duration_s``. Every control step (25 Hz by
+rectangle of ``leg_north_m`` x ``leg_east_m``, grown above 10 km with the turn radius, see
+``RouteConfig.rectangle_scale``) until ``duration_s``. Every control step (25 Hz by
 default):
 
 1. L1 guidance gives the roll demand for the current leg; the next leg starts once the aircraft
@@ -37,6 +38,15 @@ from jsbsim_env.metrics import actuator_smoothness, rmse
 from jsbsim_env.task import EAS_INDEX
 
 ATTITUDE_EAS_DEMANDS = ("measured", "route")
+RECTANGLE_ALTITUDE_M = 10_000.0  # the default rectangle's legs are drawn for this altitude (the paper's route)
+
+
+def standard_density_kg_m3(altitude_m: float) -> float:
+    """Air density of the 1976 standard atmosphere up to 20 km (troposphere, then the isothermal
+    layer from 11 km), within 1 % of JSBSim's; it sizes routes, the flight core flies JSBSim's."""
+    if altitude_m <= 11_000.0:
+        return 1.225 * (1.0 - 2.25577e-5 * altitude_m) ** 4.25588
+    return 0.36392 * math.exp(-(altitude_m - 11_000.0) / 6341.62)
 
 
 @dataclass(frozen=True)
@@ -47,6 +57,8 @@ class RouteConfig:
     eas_mps: float = 10.0
     leg_north_m: float = 6_000.0
     leg_east_m: float = 3_000.0
+    # Above RECTANGLE_ALTITUDE_M the rectangle grows with the turn radius (``rectangle_scale``).
+    scale_with_altitude: bool = True
     waypoints_ne_m: tuple[tuple[float, float], ...] | None = None  # None: the rectangle above
     duration_s: float = 2_400.0
     control_rate_hz: float = 25.0
@@ -78,13 +90,23 @@ class RouteConfig:
         if self.waypoints_ne_m is not None:
             wp = np.asarray(self.waypoints_ne_m, dtype=float)
         else:
-            n, e = self.leg_north_m, self.leg_east_m
+            n, e = self.leg_north_m * self.rectangle_scale(), self.leg_east_m * self.rectangle_scale()
             wp = np.array([[0.0, 0.0], [n, 0.0], [n, e], [0.0, e]])
         if wp.ndim != 2 or wp.shape[1] != 2 or len(wp) < 2 or not np.all(np.isfinite(wp)):
             raise ValueError(f"route needs at least two finite (north, east) waypoints, got {wp.tolist()}")
         if np.any(np.hypot(*(np.roll(wp, -1, axis=0) - wp).T) < 1.0):
             raise ValueError("route has a leg shorter than 1 m")
         return wp
+
+    def rectangle_scale(self) -> float:
+        """How much larger than drawn the default rectangle is at this altitude: the turn radius at
+        the roll limit, V_true^2 / (g tan 5 deg), against its value at ``RECTANGLE_ALTITUDE_M`` (at
+        the same EAS, the density ratio), and 1 below it or with ``scale_with_altitude`` False.
+        At 20 km the turn radius is 1.7 km, 4.7 times that at 10 km: the 3 km legs drawn for 10 km
+        would be all turn, with the roll demand at its limit throughout, and no level flight to measure."""
+        if not self.scale_with_altitude:
+            return 1.0
+        return max(1.0, standard_density_kg_m3(RECTANGLE_ALTITUDE_M) / standard_density_kg_m3(self.altitude_m))
 
     def core_config(self) -> CoreConfig:
         """The flight core for this mission: fixed interval and delay, no start perturbation."""

@@ -78,16 +78,17 @@ def test_tecs_rejects_bad_input():
         TECS().update(0.0, 10_000.0, 0.0, TAS0_MPS, EAS_TO_TAS, 0.0, 10_000.0, 10.0, 0.2, 6.0)
 
 
-def fly_l1(offset_m: float, heading_error_rad: float = 0.0, duration_s: float = 300.0) -> dict[str, np.ndarray]:
+def fly_l1(offset_m: float, heading_error_rad: float = 0.0, duration_s: float = 300.0, tas_mps: float = TAS0_MPS,
+           params: L1Params | None = None) -> dict[str, np.ndarray]:
     """Lateral point mass at constant TAS: the roll follows its demand, the heading rate is g tan(roll) / V."""
-    guidance = L1Guidance(L1Params())
+    guidance = L1Guidance(params or L1Params())
     north, east, heading, roll = 0.0, offset_m, heading_error_rad, 0.0
     out = {"t": [], "xtrack": [], "roll_cmd": []}
     for k in range(int(duration_s / DT_S)):
-        vel = (TAS0_MPS * math.cos(heading), TAS0_MPS * math.sin(heading))
+        vel = (tas_mps * math.cos(heading), tas_mps * math.sin(heading))
         g = guidance.update((north, east), vel, (0.0, 0.0), (100_000.0, 0.0))
         roll += (g.roll_rad - roll) * DT_S / ATTITUDE_LAG_S
-        heading += G_MPS2 * math.tan(roll) / TAS0_MPS * DT_S
+        heading += G_MPS2 * math.tan(roll) / tas_mps * DT_S
         north += vel[0] * DT_S
         east += vel[1] * DT_S
         out["t"].append(k * DT_S)
@@ -109,6 +110,22 @@ def test_l1_corrects_a_heading_error():
     r = fly_l1(0.0, math.radians(20.0))
     assert settling_time_s(r["t"], r["xtrack"], 0.0, 5.0) < 150.0
     assert np.abs(r["xtrack"]).max() < 150.0
+
+
+def test_l1_period_grows_where_the_roll_limit_would_clip_it():
+    params = L1Params()
+    assert params.period_at(TAS0_MPS) == params.period_s  # 10 km: the set period (20 s would do)
+    assert params.period_at(37.3) == pytest.approx(42.8, abs=0.1)  # 20 km, 10 m/s EAS
+    # At 20 km the set period would overshoot a 300 m offset by 41 % and take 77 s; the longer one
+    # overshoots by 8 % and settles in 48 s.
+    fixed = fly_l1(300.0, tas_mps=37.3, params=L1Params(linear_heading_deg=0.0))
+    grown = fly_l1(300.0, tas_mps=37.3)
+    assert fixed["xtrack"].min() < -100.0
+    assert grown["xtrack"].min() > -30.0
+    assert settling_time_s(grown["t"], grown["xtrack"], 0.0, 15.0) < 60.0
+    for bad in ({"period_s": 0.0}, {"damping": -1.0}, {"roll_limit_rad": 0.0}, {"linear_heading_deg": 90.0}):
+        with pytest.raises(ValueError, match="L1 parameters"):
+            L1Params(**bad)
 
 
 def test_l1_turns_onto_a_new_leg_from_beside_its_start():

@@ -69,6 +69,24 @@ def test_bad_route_settings():
         fly_route(PIDAttitudeController(), RouteConfig(duration_s=1.0)).metrics(100.0, 200.0)
 
 
+def test_the_rectangle_grows_with_the_turn_radius_above_10_km():
+    from jsbsim_env.missions import standard_density_kg_m3
+    from jsbsim_env.sim import Simulation
+
+    sim = Simulation()
+    for altitude_m in (0.0, 1_000.0, 10_000.0, 11_000.0, 15_000.0, 20_000.0):
+        assert standard_density_kg_m3(altitude_m) == pytest.approx(sim.density_kg_m3(altitude_m), rel=0.012)
+    drawn = np.array([[0.0, 0.0], [6000.0, 0.0], [6000.0, 3000.0], [0.0, 3000.0]])
+    for altitude_m in (1_000.0, 10_000.0):  # the paper's route and everything below it: as drawn
+        np.testing.assert_array_equal(RouteConfig(altitude_m=altitude_m).waypoints(), drawn)
+    high = RouteConfig(altitude_m=20_000.0)
+    assert high.rectangle_scale() == pytest.approx(4.69, abs=0.01)
+    np.testing.assert_allclose(high.waypoints(), drawn * high.rectangle_scale())
+    np.testing.assert_array_equal(RouteConfig(altitude_m=20_000.0, scale_with_altitude=False).waypoints(), drawn)
+    given = ((0.0, 0.0), (500.0, 0.0))  # waypoints given are flown as given
+    np.testing.assert_array_equal(RouteConfig(altitude_m=20_000.0, waypoints_ne_m=given).waypoints(), given)
+
+
 def test_mission_metrics_on_known_signals():
     n = 1000
     t = np.arange(n) / 25.0

@@ -9,6 +9,14 @@ L1 = period x damping / pi x |v| and the leg A -> B (unit vector t):
 * eta = clamp(eta1 + eta2, +-90 deg), lateral acceleration a = 4 damping^2 |v|^2 / L1 sin(eta);
 * roll demand = atan(a / g), limited to the attitude controller's range.
 
+The period grows with the ground speed where the roll limit would otherwise clip the demand at a
+small heading error. With L1 as above, the heading-error term asks for 4 pi damping |v| / period
+times sin(eta2), and the 5 deg roll limit allows g tan 5 deg = 0.86 m/s^2. At 10 km (about 17 m/s
+true airspeed) the 25 s period clips from 7.6 deg of heading error; at 20 km (about 37 m/s) it
+would clip from 3.5 deg, and the demand then jumps between the two roll limits on a straight leg.
+So the period is at least 4 pi damping |v| sin(``linear_heading_deg``) / (g tan roll_limit): 20 s
+at 10 km, where the 25 s period stands, and 43 s at 20 km.
+
 If the aircraft is farther than L1 from A and more than 135 deg behind it (seen along the leg),
 it first flies to A (PX4's capture case). Coordinates are local north/east in metres; positive roll banks right.
 """
@@ -26,6 +34,21 @@ class L1Params:
     period_s: float = 25.0  # NAV_L1_PERIOD (PX4 default 20; longer for this slow, large aircraft)
     damping: float = 0.75  # NAV_L1_DAMPING (PX4 default)
     roll_limit_rad: float = math.radians(5.0)  # SPEC roll_cmd range
+    linear_heading_deg: float = 6.0  # the roll limit clips the demand from no smaller a heading error (module doc)
+
+    def __post_init__(self):
+        if not (self.period_s > 0.0 and 0.0 < self.damping <= 2.0 and 0.0 < self.roll_limit_rad < math.pi / 2
+                and 0.0 <= self.linear_heading_deg < 90.0):
+            raise ValueError(f"L1 parameters out of range: period_s {self.period_s} (> 0), damping {self.damping} "
+                             f"(0, 2], roll_limit_rad {self.roll_limit_rad} (0, pi/2), linear_heading_deg "
+                             f"{self.linear_heading_deg} [0, 90)")
+
+    def period_at(self, ground_speed_mps: float) -> float:
+        """The guidance period (s) at this ground speed: ``period_s``, or longer where the roll limit
+        would clip the demand from a heading error below ``linear_heading_deg`` (module doc)."""
+        clip_free_s = (4.0 * math.pi * self.damping * ground_speed_mps * math.sin(math.radians(self.linear_heading_deg))
+                       / (G_MPS2 * math.tan(self.roll_limit_rad)))
+        return max(self.period_s, clip_free_s)
 
 
 @dataclass(frozen=True)
@@ -50,7 +73,7 @@ class L1Guidance:
         """Nothing to reset; here for the shared controller interface."""
 
     def l1_distance_m(self, ground_speed_mps: float) -> float:
-        return self.p.period_s * self.p.damping / math.pi * ground_speed_mps
+        return self.p.period_at(ground_speed_mps) * self.p.damping / math.pi * ground_speed_mps
 
     def update(self, position_ne_m: tuple[float, float], velocity_ne_mps: tuple[float, float],
                a_ne_m: tuple[float, float], b_ne_m: tuple[float, float]) -> L1Output:
