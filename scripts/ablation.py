@@ -32,6 +32,10 @@ from training.report import run_report
 from training.suite import suite_episodes
 
 EXPERIMENTS = ("altitudes", "route_10km")
+# Part of every scorecard's cache key: raise it when the scoring itself changes (its windows, not
+# the route settings, which are in the key). 2: the steady-state window after each corner grows
+# with the turn time above 10 km (training.report.steady_mask).
+SCORING_VERSION = 2
 # (column, where it sits in a scorecard); steady-state errors are calm air, the RMSEs the turbulent leg.
 COLUMNS = (
     ("suite return", ("suite", "mean_return_norm")),
@@ -50,10 +54,10 @@ def candidate_name(run_dir: Path) -> str:
 def score(controller_factory, out_dir: Path, policy: Path | None, episodes: int, quick: bool = False,
           integral_trim: float = 0.0) -> dict:
     """Suite, routes and their figures into ``out_dir``, kept in ``out_dir/scorecard.json`` and
-    reused while the controller (the policy file's digest, or the PID, and its integral trim), the
-    aircraft model, the route settings, the episode count and ``quick`` are the same."""
-    key = {"controller": policy_digest(policy) if policy is not None else "PID", "episodes": episodes,
-           "quick": quick, "aircraft_model": aircraft.model_fingerprint(), "route": asdict(RouteConfig())}
+    reused while the scoring version, the controller (the policy file's digest, or the PID, and its
+    integral trim), the aircraft model, the route settings, the episode count and ``quick`` are the same."""
+    key = {"scoring": SCORING_VERSION, "controller": policy_digest(policy) if policy is not None else "PID",
+           "episodes": episodes, "quick": quick, "aircraft_model": aircraft.model_fingerprint(), "route": asdict(RouteConfig())}
     if integral_trim:
         key["integral_trim"] = integral_trim
     key = json.loads(json.dumps(key))  # as it reads back from the file (tuples become lists)

@@ -85,6 +85,16 @@ def test_the_rectangle_grows_with_the_turn_radius_above_10_km():
     np.testing.assert_array_equal(RouteConfig(altitude_m=20_000.0, scale_with_altitude=False).waypoints(), drawn)
     given = ((0.0, 0.0), (500.0, 0.0))  # waypoints given are flown as given
     np.testing.assert_array_equal(RouteConfig(altitude_m=20_000.0, waypoints_ne_m=given).waypoints(), given)
+    # The steady-state window starts later after each corner, as the turns there take longer.
+    from training.report import steady_mask
+
+    t = np.arange(0.0, 400.0, 1.0)
+    arrays = {"time_s": t, "leg": (t >= 200.0).astype(float)}
+    low = steady_mask(MissionResult(RouteConfig(altitude_m=1_000.0), arrays, None), 60.0)
+    assert np.flatnonzero(low)[0] == 60 and np.flatnonzero(low[200:])[0] == 60
+    late = steady_mask(MissionResult(high, arrays, None), 60.0)
+    first = np.ceil(60.0 * np.sqrt(high.rectangle_scale()))  # 130 s
+    assert np.flatnonzero(late)[0] == first and np.flatnonzero(late[200:])[0] == first
 
 
 def test_mission_metrics_on_known_signals():

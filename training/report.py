@@ -111,7 +111,11 @@ def _provenance_line(policy: dict) -> str:
 
 
 def steady_mask(result: MissionResult, after_s: float) -> np.ndarray:
-    """Samples on a leg at least ``after_s`` after the leg began (out of the corners)."""
+    """Samples on a leg at least ``after_s`` after the leg began (out of the corners); where the
+    route's rectangle has grown with the turn radius (``RouteConfig.rectangle_scale``, above
+    10 km), that much later as the turns take longer: their time goes with the true airspeed,
+    the square root of the scale (at 20 km 2.2 times, a 90 deg turn at the roll limit 68 s)."""
+    after_s *= math.sqrt(result.config.rectangle_scale())
     a = result.arrays
     t, leg = a["time_s"], a["leg"]
     starts = np.zeros_like(t)
