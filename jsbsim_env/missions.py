@@ -133,13 +133,15 @@ class MissionResult:
         t = self.arrays["time_s"]
         return (t >= start_s) & (t < end_s)
 
-    def metrics(self, start_s: float = 0.0, end_s: float = math.inf) -> dict[str, float]:
+    def metrics(self, start_s: float = 0.0, end_s: float = math.inf, only: np.ndarray | None = None) -> dict[str, float]:
         """RMSE and mean absolute error of roll, pitch (deg), EAS (m/s) against their demands and
         of sideslip (deg) against zero, and Sm of each actuator command (``metrics.actuator_smoothness``),
-        over [start_s, end_s)."""
+        over [start_s, end_s), and of those samples only where ``only`` (one bool per sample) is True."""
         a, w = self.arrays, self.window(start_s, end_s)
+        if only is not None:
+            w = w & only
         if not np.any(w):
-            raise ValueError(f"no samples between {start_s} s and {end_s} s")
+            raise ValueError(f"no samples between {start_s} s and {end_s} s" + (" where asked" if only is not None else ""))
         errors = {
             "roll_deg": np.degrees(a["roll_rad"][w] - a["roll_cmd_rad"][w]),
             "pitch_deg": np.degrees(a["pitch_rad"][w] - a["pitch_cmd_rad"][w]),

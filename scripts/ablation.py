@@ -34,7 +34,8 @@ from training.suite import suite_episodes
 EXPERIMENTS = ("altitudes", "route_10km")
 # Part of every scorecard's cache key: raise it when the scoring itself changes (its windows, not
 # the route settings, which are in the key). 2: the steady-state window after each corner grows
-# with the turn time above 10 km (training.report.steady_mask).
+# with the turn time above 10 km (training.report.steady_mask), and the level-flight errors leave
+# out the corner in the level window as the steady-state errors do.
 SCORING_VERSION = 2
 # (column, where it sits in a scorecard); steady-state errors are calm air, the RMSEs the turbulent leg.
 COLUMNS = (
@@ -42,7 +43,7 @@ COLUMNS = (
     ("suite early ends", ("suite", "ended_early")),
     ("1 km roll/pitch SS, deg", ("altitudes", "1km")),
     ("20 km roll/pitch SS, deg", ("altitudes", "20km")),
-    ("level MAE roll/pitch, deg", ("route_10km", "level_window")),
+    ("level MAE roll/pitch, deg", ("route_10km", "level_flight")),
     ("turb. RMSE roll/pitch/β, deg", ("route_10km", "turbulent_leg")),
 )
 
@@ -73,7 +74,7 @@ def score(controller_factory, out_dir: Path, policy: Path | None, episodes: int,
                          integral_trim=integral_trim)
     card = {"key": key, "suite": suite,
             "altitudes": {k: v[name]["steady_state_error"] for k, v in metrics["altitudes"].items()},
-            "route_10km": {k: metrics["route_10km"][name][k] for k in ("level_window", "turbulent_leg")},
+            "route_10km": {k: metrics["route_10km"][name][k] for k in ("level_window", "level_flight", "turbulent_leg")},
             "ended_early": {k: bool(v[name]["ended_early"]) for k, v in
                             [*metrics["altitudes"].items(), ("10km", metrics["route_10km"])]}}
     path.write_text(json.dumps(card, indent=1, default=float))
@@ -102,7 +103,7 @@ def cell(cards: list[dict], where: tuple[str, str]) -> str:
         values = np.array([[c["suite"][key]] for c in cards], dtype=float)
     elif section == "altitudes":
         values = np.array([_pair(c["altitudes"][key], ("roll_deg", "pitch_deg")) for c in cards])
-    elif key == "level_window":
+    elif key == "level_flight":
         values = np.array([_pair(c["route_10km"][key], ("mae_roll_deg", "mae_pitch_deg")) for c in cards])
     else:
         values = np.array([_pair(c["route_10km"][key], ("rmse_roll_deg", "rmse_pitch_deg", "rmse_beta_deg"))

@@ -126,6 +126,12 @@ def test_mission_metrics_on_known_signals():
     late = window_metrics(result, 50.0, 60.0)
     assert set(late) == set(m) and all(np.isnan(v) for v in late.values())
     assert window_metrics(result, 0.0, 20.0) == half
+    # ``only`` narrows a window to the samples asked for (the level window's straight flight).
+    second_half = arrays["time_s"] >= 20.0
+    assert window_metrics(result, 0.0, 40.0, only=second_half) == result.metrics(20.0, 40.0)
+    with pytest.raises(ValueError, match="where asked"):
+        result.metrics(0.0, 20.0, only=second_half)
+    assert all(np.isnan(v) for v in window_metrics(result, 0.0, 20.0, only=second_half).values())
 
 
 def test_pid_on_the_policy_evaluation_suite():
