@@ -3,8 +3,13 @@
 from __future__ import annotations
 
 import json
+import math
 
-from jsbsim_env.task import AttitudeTaskBatch, TaskConfig
+import numpy as np
+
+from jsbsim_env.controllers.pid import PIDAttitudeController
+from jsbsim_env.core import CoreConfig, FlightCore
+from jsbsim_env.task import EAS_INDEX, AttitudeTaskBatch, TaskConfig
 from training.policy import PolicyRuntime, load_policy, onnx_source_digest, policy_digest, shipped_policy_path
 from training.suite import EVAL_EPISODE_SEED, fly
 
@@ -31,3 +36,34 @@ def test_shipped_policy_flies_a_disturbed_episode_without_early_end():
     _, end = fly(PolicyRuntime(), batch, seed=EVAL_EPISODE_SEED - 1, steps=steps)
     assert end["steps"] == steps and not end["terminated"], end
     assert end["return"] / steps > 2 * RANDOM_ACTIONS_RETURN
+
+
+def pitch_errors_in_a_dive_for_speed(controller, pitch_cmd_deg: float = -10.0, duration_s: float = 20.0):
+    """Calm air at 10 km from trimmed flight at 8 m/s EAS, as a route leaves the aircraft after a gust:
+    TECS asks for ``pitch_cmd_deg`` to regain the route's 10 m/s and flies the throttle (held at 0.35
+    here), and the attitude controller gets its measured EAS as demand
+    (``RouteConfig.attitude_eas_demand``). Returns the pitch error (deg) at each control step from
+    2 s after the demand until the aircraft is back at 10 m/s, when TECS would ease it."""
+    dt_s = 0.04
+    core = FlightCore(CoreConfig.ideal(control_interval_s=(dt_s, dt_s), delay_s=(dt_s, dt_s)))
+    measurement = core.reset(0, altitude_m=10_000.0, airspeed_eas_mps=8.0)
+    errors = []
+    for k in range(int(duration_s / dt_s)):
+        demand = np.array([0.0, math.radians(pitch_cmd_deg), measurement[EAS_INDEX]])
+        command = np.array(controller.update(dt_s, np.asarray(measurement), demand), dtype=float)
+        command[3] = 0.35
+        measurement = core.step(command)
+        if core.last_true_state[EAS_INDEX] >= 10.0:
+            break
+        if k * dt_s >= 2.0:
+            errors.append(math.degrees(core.last_true_state[2]) - pitch_cmd_deg)
+    return np.array(errors)
+
+
+def test_shipped_policy_follows_a_dive_demand_when_tecs_flies_the_speed():
+    """Given its measured EAS as demand, a policy trained only to hold the airspeed goal with its own
+    throttle keeps the pitch that holds its speed: one such policy held +2 deg for minutes against
+    TECS's -10 deg on the turbulent leg. The shipped one must follow, as the PID does."""
+    for controller in (PIDAttitudeController(), PolicyRuntime()):
+        errors = np.abs(pitch_errors_in_a_dive_for_speed(controller))
+        assert errors.size > 0 and errors.mean() < 1.5, (type(controller).__name__, errors.size, errors.mean())

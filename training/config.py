@@ -45,10 +45,12 @@ class EnvSettings:
                                  "episodes go without: their goals change every 3-10 s). 0: none")
     sideslip_weight: float = _f(3.0, "training reward's sideslip penalty and its cap times this (1: SPEC Eq. 22; "
                                      "3 halved the sideslip, docs/training.md); evaluations keep Eq. 22")
-    penalty_tail: float = _f(0.0, "training reward: share of each Eq. 22 penalty's slope kept beyond its cap, so that a "
-                                  "large error still costs more than a small one (0: SPEC Eq. 22); evaluations keep Eq. 22")
-    external_throttle: float = _f(0.0, "share of training episodes whose throttle a speed hold flies instead of the "
-                                       "policy, as TECS does on a route (0: none, as the paper)")
+    penalty_tail: float = _f(0.1, "training reward: share of each Eq. 22 penalty's slope kept beyond its cap, so that a "
+                                  "large error still costs more than a small one (0: SPEC Eq. 22; with external_throttle "
+                                  "it taught the policy to follow TECS's pitch, docs/training.md); evaluations keep Eq. 22")
+    external_throttle: float = _f(0.3, "share of training episodes whose throttle a speed hold flies instead of the "
+                                       "policy and whose EAS goal is the measured EAS, as on a route under TECS "
+                                       "(0: none, as the paper)")
 
 
 @dataclass
