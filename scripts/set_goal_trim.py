@@ -1,9 +1,9 @@
 """Set the goal trim a policy file flies with (``jsbsim_env.controllers.goal_trim``), in place.
 
-    python scripts/set_goal_trim.py runs/<name>/best_policy.pt --time-constant 5
+    python scripts/set_goal_trim.py runs/<name>/best_policy.pt --time-constant 20
 
 The goal trim is a flight-time setting, recorded in the policy file and applied by
-``PolicyRuntime``; training episodes go without it. New runs record ``--env.goal_trim_s`` (5 s by
+``PolicyRuntime``; training episodes go without it. New runs record ``--env.goal_trim_s`` (20 s by
 default); this gives a policy trained before that setting existed (or any other) the same.
 """
 
@@ -19,7 +19,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("policies", type=Path, nargs="+", help="policy files (.pt)")
-    parser.add_argument("--time-constant", type=float, default=5.0, help="seconds; 0 turns the goal trim off")
+    parser.add_argument("--time-constant", type=float, default=20.0, help="seconds; 0 turns the goal trim off")
     args = parser.parse_args()
     for path in args.policies:
         set_goal_trim(path, args.time_constant)

@@ -118,7 +118,7 @@ def test_the_runtimes_goal_trim_is_goal_trim_around_the_policy(tmp_path):
     trainer.save_policy(without, {"return_norm": 0.0})
     runtime = PolicyRuntime(with_goal_trim, backend="torch")
     wrapped = GoalTrim(PolicyRuntime(without, backend="torch"), TrainConfig().env.goal_trim_s)
-    assert runtime.meta["goal_trim_s"] == 5.0 and load_policy(without)[1]["goal_trim_s"] == 0.0
+    assert runtime.meta["goal_trim_s"] == 20.0 and load_policy(without)[1]["goal_trim_s"] == 0.0
     rng = np.random.default_rng(0)
     base = np.array([5000.0, 0, 0, 0, 0, 0, 10.0, 0, 0, 0, 0, 0, 0.5])
     goal = np.array([0.004, -0.003, 10.0])  # a fraction of a degree off: the goal trim integrates

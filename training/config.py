@@ -40,7 +40,7 @@ class EnvSettings:
                                         "show only while they move; docs/training.md)")
     rudder_trim_s: float = _f(0.0, "time constant (s) of a rudder trim on sideslip beside the integral trims, at "
                                    "integral_trim times the PID's sideslip gain over it (hidden trims only; 0: none)")
-    goal_trim_s: float = _f(5.0, "time constant (s) of the goal trim the policy flies with, recorded in the policy "
+    goal_trim_s: float = _f(20.0, "time constant (s) of the goal trim the policy flies with, recorded in the policy "
                                  "file and applied by PolicyRuntime (jsbsim_env.controllers.goal_trim; training "
                                  "episodes go without: their goals change every 3-10 s). 0: none")
     sideslip_weight: float = _f(3.0, "training reward's sideslip penalty and its cap times this (1: SPEC Eq. 22; "

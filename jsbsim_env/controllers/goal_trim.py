@@ -14,7 +14,9 @@ offset, the policy settles on the goal it was asked for.
 | pitch | pitch_cmd + integral of (pitch_cmd - pitch) / time_constant_s |
 
 It integrates only while the error is below ``active_below_deg`` (a steady offset, not a goal step,
-a turn or a gust) and stays within ``limit_deg``. The EAS goal passes unchanged.
+a turn or a gust) and stays within ``limit_deg``. The EAS goal passes unchanged. The integral
+follows the measurement noise too, so a short time constant makes the goal wander: with 5 s our
+policies' calm-air roll error at 1 km was up to twice that with 20 s (docs/training.md).
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ _ROLL, _PITCH = STATE_NAMES.index("roll_rad"), STATE_NAMES.index("pitch_rad")
 class GoalIntegrator:
     """The roll and pitch goal offsets (rad) of one aircraft, on plain floats."""
 
-    def __init__(self, time_constant_s: float = 5.0, limit_deg: float = 2.0, active_below_deg: float = 1.0):
+    def __init__(self, time_constant_s: float = 20.0, limit_deg: float = 2.0, active_below_deg: float = 1.0):
         if not 0.5 <= time_constant_s <= 100.0:
             raise ValueError(f"goal trim time constant must lie in [0.5, 100] s, got {time_constant_s}")
         if not 0.0 < limit_deg <= 10.0 or not 0.0 < active_below_deg <= 10.0:
@@ -67,7 +69,7 @@ class GoalTrim:
     """``controller`` given goals moved by a ``GoalIntegrator`` (module docstring); shares the
     ``AttitudeController`` interface."""
 
-    def __init__(self, controller: AttitudeController, time_constant_s: float = 5.0, limit_deg: float = 2.0,
+    def __init__(self, controller: AttitudeController, time_constant_s: float = 20.0, limit_deg: float = 2.0,
                  active_below_deg: float = 1.0):
         self.controller = controller
         self.integrator = GoalIntegrator(time_constant_s, limit_deg, active_below_deg)
