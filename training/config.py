@@ -41,8 +41,9 @@ class EnvSettings:
     rudder_trim_s: float = _f(0.0, "time constant (s) of a rudder trim on sideslip beside the integral trims, at "
                                    "integral_trim times the PID's sideslip gain over it (hidden trims only; 0: none)")
     goal_trim_s: float = _f(20.0, "time constant (s) of the goal trim the policy flies with, recorded in the policy "
-                                 "file and applied by PolicyRuntime (jsbsim_env.controllers.goal_trim; training "
-                                 "episodes go without: their goals change every 3-10 s). 0: none")
+                                  "file and applied by PolicyRuntime (jsbsim_env.controllers.goal_trim; training "
+                                  "episodes go without: their goals change every 3-10 s; 5 s made the goal wander "
+                                  "with the sensor noise, docs/training.md). 0: none")
     sideslip_weight: float = _f(3.0, "training reward's sideslip penalty and its cap times this (1: SPEC Eq. 22; "
                                      "3 halved the sideslip, docs/training.md); evaluations keep Eq. 22")
     penalty_tail: float = _f(0.1, "training reward: share of each Eq. 22 penalty's slope kept beyond its cap, so that a "
