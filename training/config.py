@@ -99,8 +99,10 @@ class NetworkSettings:
 
 @dataclass
 class CapsSettings:
-    kappa_spatial: float = _f(2.0, "CAPS spatial smoothness weight (SPEC: 2)")
-    kappa_temporal: float = _f(1.0, "CAPS temporal smoothness weight (SPEC: 1)")
+    # Half SPEC's weights: over three seeds each, the suite return rose from 0.562 to 0.596 with the
+    # calm-air steady state no worse (docs/training.md); --preset paper keeps SPEC's 2 and 1.
+    kappa_spatial: float = _f(1.0, "CAPS spatial smoothness weight (SPEC: 2; half of it scored better)")
+    kappa_temporal: float = _f(0.5, "CAPS temporal smoothness weight (SPEC: 1; half of it scored better)")
     sigma_spatial: float = _f(0.05, "std of the observation perturbation for the spatial term (scaled units)")
     batch_size: int = _f(64, "replay samples (of each update's batch) the CAPS terms are averaged over")
 
@@ -135,7 +137,7 @@ class TrainConfig:
         """A named starting configuration: ``"default"`` (this package's) or ``"paper"`` (SPEC
         section 3 as far as this environment allows: a fixed temperature of 0.2, one gradient step
         per environment step, no goal relabelling, no error integrals, integral trim or external
-        throttle, Eq. 22's reward; the observation keeps the last action, without which nothing
+        throttle, Eq. 22's reward, CAPS weights 2 and 1; the observation keeps the last action, without which nothing
         learned, README)."""
         config = cls()
         if name == "paper":
@@ -151,6 +153,8 @@ class TrainConfig:
             config.env.sideslip_weight = 1.0
             config.env.penalty_tail = 0.0
             config.env.external_throttle = 0.0
+            config.caps.kappa_spatial = 2.0
+            config.caps.kappa_temporal = 1.0
         elif name != "default":
             raise ValueError(f"unknown preset {name!r}: use one of {PRESETS}")
         return config
