@@ -46,6 +46,8 @@ class EnvSettings:
                                   "with the sensor noise, docs/training.md). 0: none")
     sideslip_weight: float = _f(3.0, "training reward's sideslip penalty and its cap times this (1: SPEC Eq. 22; "
                                      "3 halved the sideslip, docs/training.md); evaluations keep Eq. 22")
+    roll_weight: float = _f(1.0, "training reward's roll penalty and its cap times this (1: SPEC Eq. 22); "
+                                 "evaluations keep Eq. 22")
     penalty_tail: float = _f(0.1, "training reward: share of each Eq. 22 penalty's slope kept beyond its cap, so that a "
                                   "large error still costs more than a small one (0: SPEC Eq. 22; with external_throttle "
                                   "it taught the policy to follow TECS's pitch, docs/training.md); evaluations keep Eq. 22")
@@ -151,6 +153,7 @@ class TrainConfig:
             config.env.trims_in_surfaces = True
             config.env.goal_trim_s = 0.0
             config.env.sideslip_weight = 1.0
+            config.env.roll_weight = 1.0
             config.env.penalty_tail = 0.0
             config.env.external_throttle = 0.0
             config.caps.kappa_spatial = 2.0

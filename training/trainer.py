@@ -95,8 +95,8 @@ class Trainer:
         self.task_config = TaskConfig(core=core, error_integral_decay=c.env.error_integral_decay,
                                       integral_trim=c.env.integral_trim, observe_trims=c.env.observe_trims,
                                       trims_in_surfaces=c.env.trims_in_surfaces, rudder_trim_s=c.env.rudder_trim_s,
-                                      sideslip_weight=c.env.sideslip_weight, penalty_tail=c.env.penalty_tail,
-                                      external_throttle=c.env.external_throttle)
+                                      sideslip_weight=c.env.sideslip_weight, roll_weight=c.env.roll_weight,
+                                      penalty_tail=c.env.penalty_tail, external_throttle=c.env.external_throttle)
         self.env = make_env(c.env.num_envs, self.task_config, seed=c.seed, window=c.env.window,
                             critic_state=c.network.critic == "state")
         obs_size = self.task_config.observation_size
@@ -200,7 +200,8 @@ class Trainer:
         c = self.config
         batch = relabel_goals(batch.to(self.device), c.buffer.relabel_fraction, c.buffer.relabel_spread,
                               error_integrals=c.env.error_integral_decay > 0.0,
-                              sideslip_weight=c.env.sideslip_weight, penalty_tail=c.env.penalty_tail)
+                              sideslip_weight=c.env.sideslip_weight, penalty_tail=c.env.penalty_tail,
+                              roll_weight=c.env.roll_weight)
         for key, value in self.sac.update(batch).items():
             self._losses.setdefault(key, []).append(value)
         self.counters.updates += 1
@@ -379,11 +380,12 @@ def evaluate_policy(policy, task_config: TaskConfig, episodes: int = 8, max_step
     fly ``episodes`` episodes side by side with the deterministic policy, each once.
 
     Returns the mean normalised return (episode reward / max_steps, SPEC Fig. 8; always with Eq. 22's
-    reward and the policy on the throttle, whatever sideslip weight, penalty tail and external throttle the run
+    reward and the policy on the throttle, whatever reward weights, penalty tail and external throttle the run
     trains with), the mean episode length and the number of episodes that ended early (terminated,
     not truncated).
     """
-    plain = dataclasses.replace(task_config, sideslip_weight=1.0, penalty_tail=0.0, external_throttle=0.0)
+    plain = dataclasses.replace(task_config, sideslip_weight=1.0, roll_weight=1.0, penalty_tail=0.0,
+                                external_throttle=0.0)
     env = make_env(episodes, plain, seed=seed, window=window)
     td = env.reset()
     active = torch.ones(episodes, dtype=torch.bool)
