@@ -107,7 +107,7 @@ def test_config_round_trip_and_command_line():
     ns = parser.parse_args(["--seed", "7", "--optim.lr", "0.001", "--env.disturbances", "false"])
     c = TrainConfig.from_namespace(ns)
     assert c.seed == 7 and c.optim.lr == 0.001 and c.env.disturbances is False
-    assert c.buffer.batch_size == 256 and c.caps.kappa_spatial == 1.0  # untouched settings keep their defaults
+    assert c.buffer.batch_size == 256 and c.caps.kappa_spatial == 0.5  # untouched settings keep their defaults
     assert TrainConfig.from_dict(json.loads(c.to_json())) == c
     with pytest.raises(ValueError, match="unknown settings"):
         TrainConfig.from_dict({"optim": {"learning_rate": 1}})
