@@ -102,8 +102,9 @@ class NetworkSettings:
 @dataclass
 class CapsSettings:
     # A quarter of SPEC's weights: over three seeds each, the suite return rose from 0.562 (SPEC's) to
-    # 0.596 (half) to 0.629 (a quarter), with the calm-air steady state and the turbulent pitch and
-    # sideslip better each time (docs/training.md); --preset paper keeps SPEC's 2 and 1.
+    # 0.596 (half) to 0.629 (a quarter), with the calm-air steady state and the turbulent sideslip
+    # better each time and the turbulent roll and pitch better at a quarter (docs/training.md);
+    # --preset paper keeps SPEC's 2 and 1.
     kappa_spatial: float = _f(0.5, "CAPS spatial smoothness weight (SPEC: 2; a quarter of it scored best)")
     kappa_temporal: float = _f(0.25, "CAPS temporal smoothness weight (SPEC: 1; a quarter of it scored best)")
     sigma_spatial: float = _f(0.05, "std of the observation perturbation for the spatial term (scaled units)")
