@@ -7,7 +7,8 @@ with the wall-clock the run took to reach that policy; then one row per candidat
 
 Runs are grouped into candidates by their folder name without the ``_seedN`` ending. Each run's
 scores are kept in ``RUN_DIR/scorecard/scorecard.json`` (with the report's figures beside it) and
-reused while the policy file is unchanged, so adding a seed costs only that seed's flights.
+reused while the policy file is unchanged, so adding a seed costs only that seed's flights; a
+scorecard written before a section existed (the Table 9 aircraft) gains only that section's flights.
 ``--pid`` adds the PID on the same flights as the reference row.
 """
 
@@ -28,10 +29,12 @@ from jsbsim_env.missions import RouteConfig
 from training.controllers import make_controller
 from training.policy import load_policy, policy_digest
 from training.provenance import training_wall_clock
-from training.report import run_report
+from training.report import render_markdown, run_report
 from training.suite import suite_episodes
 
-EXPERIMENTS = ("altitudes", "route_10km")
+# Scorecard sections (named by the key each adds to the scorecard) and the report experiments
+# they are flown with; a cached scorecard that lacks a section gets only that section's flights.
+SECTIONS = {"route_10km": ("altitudes", "route_10km"), "table9": ("perturbation",)}
 # Part of every scorecard's cache key: raise it when the scoring itself changes (its windows, not
 # the route settings, which are in the key). 2: the steady-state window after each corner grows
 # with the turn time above 10 km (training.report.steady_mask), and the level-flight errors leave
@@ -45,6 +48,8 @@ COLUMNS = (
     ("20 km roll/pitch SS, deg", ("altitudes", "20km")),
     ("level MAE roll/pitch, deg", ("route_10km", "level_flight")),
     ("turb. RMSE roll/pitch/β, deg", ("route_10km", "turbulent_leg")),
+    ("Table 9 + RMSE roll/pitch/β, deg", ("table9", "positive")),
+    ("Table 9 − RMSE roll/pitch/β, deg", ("table9", "negative")),
 )
 
 
@@ -63,20 +68,34 @@ def score(controller_factory, out_dir: Path, policy: Path | None, episodes: int,
         key["integral_trim"] = integral_trim
     key = json.loads(json.dumps(key))  # as it reads back from the file (tuples become lists)
     path = out_dir / "scorecard.json"
+    card = {"key": key}
     if path.exists():
         cached = json.loads(path.read_text())
         if cached.get("key") == key:
-            return cached
+            card = cached
+    if "suite" not in card:
+        card["suite"] = suite_episodes(controller_factory(), episodes)
+    missing = [section for section in SECTIONS if section not in card]
+    if not missing:
+        return card
     out_dir.mkdir(parents=True, exist_ok=True)
-    suite = suite_episodes(controller_factory(), episodes)
     name = "PID" if policy is None else "RL"
-    metrics = run_report(out_dir, policy, quick=quick, progress=False, experiments=EXPERIMENTS, controllers=(name,),
-                         integral_trim=integral_trim)
-    card = {"key": key, "suite": suite,
-            "altitudes": {k: v[name]["steady_state_error"] for k, v in metrics["altitudes"].items()},
-            "route_10km": {k: metrics["route_10km"][name][k] for k in ("level_window", "level_flight", "turbulent_leg")},
-            "ended_early": {k: bool(v[name]["ended_early"]) for k, v in
-                            [*metrics["altitudes"].items(), ("10km", metrics["route_10km"])]}}
+    earlier = json.loads((out_dir / "metrics.json").read_text()) if (out_dir / "metrics.json").exists() else {}
+    metrics = run_report(out_dir, policy, quick=quick, progress=False, controllers=(name,), integral_trim=integral_trim,
+                         experiments=tuple(e for section in missing for e in SECTIONS[section]))
+    if earlier.get("controllers") == metrics["controllers"]:  # one report of every experiment flown
+        merged = {**earlier, **metrics, "experiments": [*earlier.get("experiments", []), *metrics["experiments"]]}
+        (out_dir / "metrics.json").write_text(json.dumps(merged, indent=1, default=float))
+        (out_dir / "report.md").write_text(render_markdown(merged, out_dir))
+    ended = card.setdefault("ended_early", {})
+    if "route_10km" in missing:
+        card["altitudes"] = {k: v[name]["steady_state_error"] for k, v in metrics["altitudes"].items()}
+        card["route_10km"] = {k: metrics["route_10km"][name][k] for k in ("level_window", "level_flight", "turbulent_leg")}
+        ended.update({k: bool(v[name]["ended_early"]) for k, v in
+                      [*metrics["altitudes"].items(), ("10km", metrics["route_10km"])]})
+    if "table9" in missing:
+        card["table9"] = {k: v[name]["whole_route"] for k, v in metrics["perturbation"].items()}
+        ended.update({f"table9_{k}": bool(v[name]["ended_early"]) for k, v in metrics["perturbation"].items()})
     path.write_text(json.dumps(card, indent=1, default=float))
     return card
 
@@ -106,7 +125,7 @@ def cell(cards: list[dict], where: tuple[str, str]) -> str:
     elif key == "level_flight":
         values = np.array([_pair(c["route_10km"][key], ("mae_roll_deg", "mae_pitch_deg")) for c in cards])
     else:
-        values = np.array([_pair(c["route_10km"][key], ("rmse_roll_deg", "rmse_pitch_deg", "rmse_beta_deg"))
+        values = np.array([_pair(c[section][key], ("rmse_roll_deg", "rmse_pitch_deg", "rmse_beta_deg"))
                            for c in cards])
     fmt = "{:.0f}" if key == "ended_early" else "{:.3f}"
     text = " / ".join(fmt.format(v) for v in values.mean(axis=0))
