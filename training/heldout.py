@@ -1,0 +1,59 @@
+"""Held-out flights: the report's kinds of flight at other altitudes and route seeds, for
+choosing among trained seeds without choosing on the report's own flights.
+
+| flight | route | scored |
+|---|---|---|
+| ``turbulent_5km`` | 5 km, legs 1-3 in turbulence, seed 101 | RMSE roll / pitch / sideslip over the turbulent legs |
+| ``positive_3km``, ``negative_3km`` | 3 km, calm, SPEC Table 9 aircraft, seed 102 | RMSE over the whole route |
+| ``calm_15km`` | 15 km, calm, seed 103 | mean absolute roll / pitch error on the straight legs |
+
+The report flies 10 km (turbulence and Table 9), 1 km and 20 km, all with route seed 11
+(``training.report.ROUTE_SEED``); none of these flights is one of its.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+
+from jsbsim_env.controllers.base import AttitudeController
+from jsbsim_env.missions import RouteConfig, fly_route
+from training.report import ROUTE_SEED, steady_state_errors
+
+SEEDS = {"turbulent": 101, "table9": 102, "calm": 103}
+assert ROUTE_SEED not in SEEDS.values()
+RMSE_KEYS = ("rmse_roll_deg", "rmse_pitch_deg", "rmse_beta_deg")
+STEADY_AFTER_S = 60.0  # straight legs are scored from this long after each corner, as in the report
+
+
+def heldout_flights(quick: bool = False) -> dict[str, RouteConfig]:
+    """The held-out route flights by name; ``quick``: 30 s each, turbulence from the start, for checks."""
+    base = RouteConfig(duration_s=30.0 if quick else 1200.0)
+    turbulent_legs = (0,) if quick else (1, 2, 3)
+    return {"turbulent_5km": replace(base, altitude_m=5000.0, turbulence_legs=turbulent_legs, seed=SEEDS["turbulent"]),
+            "positive_3km": replace(base, altitude_m=3000.0, parameters="positive", seed=SEEDS["table9"]),
+            "negative_3km": replace(base, altitude_m=3000.0, parameters="negative", seed=SEEDS["table9"]),
+            "calm_15km": replace(base, altitude_m=15000.0, seed=SEEDS["calm"])}
+
+
+def heldout_scores(controller_factory: Callable[[], AttitudeController], quick: bool = False) -> dict:
+    """Each held-out flight's scores (degrees) for a fresh controller from ``controller_factory``,
+    and whether any flight ended early."""
+    scores: dict = {"ended_early": False}
+    for name, config in heldout_flights(quick).items():
+        result = fly_route(controller_factory(), config)
+        scores["ended_early"] |= bool(result.ended_early)
+        if name == "calm_15km":
+            steady = steady_state_errors(result, STEADY_AFTER_S)
+            scores[name] = {"mae_roll_deg": steady["roll_deg"], "mae_pitch_deg": steady["pitch_deg"]}
+            continue
+        if config.turbulence_legs:
+            turbulent = result.arrays["turbulence"] > 0
+            if not turbulent.any():
+                raise RuntimeError(f"{name}: the flight ended before its turbulent legs")
+            t = result.arrays["time_s"][turbulent]
+            metrics = result.metrics(float(t[0]), float(t[-1]) + 1e-9)
+        else:
+            metrics = result.metrics()
+        scores[name] = {k: float(metrics[k]) for k in RMSE_KEYS}
+    return scores
