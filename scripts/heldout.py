@@ -3,6 +3,11 @@ report's kinds of flight at other altitudes and route seeds, for choosing among 
 choosing on the report's own flights. One row per run.
 
     python scripts/heldout.py runs/c12_seed0 runs/c12_seed1 runs/c12_seed2 --pid
+    python scripts/heldout.py runs/c12_seed0 runs/c12_seed1 runs/c12_seed2 --pick
+
+``--pick`` also flies the PID and names the run whose scores are best relative to the PID's
+(``training.heldout.relative_score``: the geometric mean of each measure over the PID's), the
+seed to ship with ``scripts/ship_policy.py``.
 """
 
 from __future__ import annotations
@@ -15,17 +20,21 @@ import torch
 
 from jsbsim_env.controllers.pid import PIDAttitudeController
 from training.controllers import make_controller
-from training.heldout import heldout_flights, heldout_scores
+from training.heldout import heldout_flights, heldout_scores, relative_score
 
 
 def markdown(rows: dict[str, dict]) -> str:
     flights = list(heldout_flights())
+    relative = all("relative_to_pid" in scores for scores in rows.values())
     head = ["controller", *(f"{f} {'MAE roll/pitch' if f.startswith('calm') else 'RMSE roll/pitch/β'}, deg"
-                            for f in flights), "ended early"]
+                            for f in flights), "ended early", *(["relative to the PID"] if relative else [])]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for name, scores in rows.items():
         cells = [" / ".join(f"{v:.3f}" for v in scores[f].values()) for f in flights]
-        lines.append("| " + " | ".join([name, *cells, "yes" if scores["ended_early"] else "no"]) + " |")
+        cells.append("yes" if scores["ended_early"] else "no")
+        if relative:
+            cells.append(f"{scores['relative_to_pid']:.3f}")
+        lines.append("| " + " | ".join([name, *cells]) + " |")
     return "\n".join(lines)
 
 
@@ -36,9 +45,17 @@ def main() -> None:
     parser.add_argument("--pid", action="store_true", help="also fly the PID")
     parser.add_argument("--json", action="store_true", help="print the scores as JSON instead of a table")
     parser.add_argument("--quick", action="store_true", help="30 s flights, for checks")
+    parser.add_argument("--pick", action="store_true",
+                        help="fly the PID too and name the run best relative to it (relative_score)")
     args = parser.parse_args()
     if not args.runs and not args.pid:
         parser.error("name at least one run folder, or --pid")
+    if args.pick and not args.runs:
+        parser.error("--pick needs run folders to pick from")
+    names = [run.name for run in args.runs]
+    if len(set(names)) < len(names) or "PID" in names:
+        parser.error(f"run folders need distinct names other than PID, got {names}")
+    args.pid |= args.pick
     for run in args.runs:
         if not (run / "best_policy.pt").is_file():
             parser.error(f"{run} has no best_policy.pt")
@@ -47,7 +64,16 @@ def main() -> None:
     for run in args.runs:
         factories[run.name] = (lambda p=run / "best_policy.pt": make_controller("policy", p, backend="torch"))
     rows = {name: heldout_scores(factory, args.quick) for name, factory in factories.items()}
+    if args.pid:
+        for scores in rows.values():
+            scores["relative_to_pid"] = relative_score(scores, rows["PID"])
     print(json.dumps(rows, indent=1) if args.json else markdown(rows))
+    if args.pick:
+        runs = {run.name: run for run in args.runs}
+        best = min(runs, key=lambda name: rows[name]["relative_to_pid"])
+        if rows[best]["relative_to_pid"] == float("inf"):
+            raise SystemExit("every run ended a held-out flight early: none to pick")
+        print(f"picked: {runs[best]} (relative to the PID {rows[best]['relative_to_pid']:.3f})")
 
 
 if __name__ == "__main__":

@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import json
+import math
+import shutil
 import subprocess
 import sys
 from pathlib import Path
 
 from test_ablation import _run_folder
 
-from training.heldout import heldout_flights
+from training.heldout import heldout_flights, relative_score
+from training.policy import shipped_policy_path
 from training.report import ROUTE_SEED
 
 SCRIPT = Path(__file__).resolve().parents[1] / "scripts" / "heldout.py"
@@ -23,6 +26,27 @@ def test_heldout_flights_are_not_the_reports():
     assert flights["turbulent_5km"].turbulence_legs and not flights["calm_15km"].turbulence_legs
 
 
+def _scores(value: float, ended_early: bool = False) -> dict:
+    scores = {"ended_early": ended_early}
+    for flight in heldout_flights():
+        keys = ("mae_roll_deg", "mae_pitch_deg") if flight.startswith("calm") else ("rmse_roll_deg", "rmse_pitch_deg",
+                                                                                    "rmse_beta_deg")
+        scores[flight] = dict.fromkeys(keys, value)
+    return scores
+
+
+def test_relative_score_is_the_geometric_mean_of_the_ratios():
+    pid = _scores(0.4)
+    assert math.isclose(relative_score(_scores(0.4), pid), 1.0)
+    assert math.isclose(relative_score(_scores(0.2), pid), 0.5)
+    mixed = _scores(0.4)
+    mixed["turbulent_5km"]["rmse_roll_deg"] = 0.4 * 2.0 ** 11  # one measure 2^11 worse in 11
+    assert math.isclose(relative_score(mixed, pid), 2.0)
+    mixed["calm_15km"]["mae_roll_deg"] = math.nan  # a measure a short flight lacks is left out
+    assert math.isclose(relative_score(mixed, pid), 2.0 ** (11 / 10))
+    assert relative_score(_scores(0.1, ended_early=True), pid) == math.inf
+
+
 def test_heldout_scores_runs_and_the_pid(tmp_path):
     run = _run_folder(tmp_path, "cand_seed0", 0)
     command = [sys.executable, str(SCRIPT), str(run), "--pid", "--quick"]
@@ -31,15 +55,29 @@ def test_heldout_scores_runs_and_the_pid(tmp_path):
     rows = json.loads(done.stdout)
     assert list(rows) == ["PID", "cand_seed0"]
     for scores in rows.values():
-        assert set(scores) == {"ended_early", *heldout_flights()}
+        assert set(scores) == {"ended_early", "relative_to_pid", *heldout_flights()}
         assert set(scores["turbulent_5km"]) == {"rmse_roll_deg", "rmse_pitch_deg", "rmse_beta_deg"}
         assert set(scores["calm_15km"]) == {"mae_roll_deg", "mae_pitch_deg"}
-    table = subprocess.run(command, check=False, capture_output=True, text=True, timeout=600)
+    assert rows["PID"]["relative_to_pid"] == 1.0 and rows["cand_seed0"]["relative_to_pid"] > 0
+    # The untrained policy ends a flight early, so --pick refuses it and picks the shipped one.
+    refused = subprocess.run([*command, "--pick"], check=False, capture_output=True, text=True, timeout=600)
+    assert refused.returncode != 0 and "none to pick" in refused.stderr
+    shipped = tmp_path / "shipped_seed1"
+    shipped.mkdir()
+    shutil.copy(shipped_policy_path(), shipped / "best_policy.pt")
+    table = subprocess.run([sys.executable, str(SCRIPT), str(run), str(shipped), "--quick", "--pick"], check=False,
+                           capture_output=True, text=True, timeout=600)
     assert table.returncode == 0, table.stderr
-    assert [line.split(" |")[0] for line in table.stdout.splitlines()[2:]] == ["| PID", "| cand_seed0"]
+    lines = table.stdout.splitlines()
+    assert [line.split(" |")[0] for line in lines[2:5]] == ["| PID", "| cand_seed0", "| shipped_seed1"]
+    assert lines[-1].startswith(f"picked: {shipped} ")
 
 
-def test_heldout_refuses_a_folder_without_a_policy(tmp_path):
+def test_heldout_refuses_a_folder_without_a_policy_and_clashing_names(tmp_path):
     done = subprocess.run([sys.executable, str(SCRIPT), str(tmp_path)], check=False, capture_output=True, text=True,
                           timeout=120)
     assert done.returncode != 0 and "has no best_policy.pt" in done.stderr
+    runs = [_run_folder(tmp_path / side, "cand_seed0", 0) for side in ("a", "b")]
+    done = subprocess.run([sys.executable, str(SCRIPT), *map(str, runs), "--pick"], check=False, capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode != 0 and "distinct names" in done.stderr

@@ -13,6 +13,7 @@ The report flies 10 km (turbulence and Table 9), 1 km and 20 km, all with route 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import replace
 
@@ -56,3 +57,18 @@ def heldout_scores(controller_factory: Callable[[], AttitudeController], quick: 
             metrics = result.metrics()
         scores[name] = {k: float(metrics[k]) for k in RMSE_KEYS}
     return scores
+
+
+def relative_score(scores: dict, reference: dict) -> float:
+    """Geometric mean, over every held-out measure, of ``scores`` over ``reference`` (the PID's):
+    below 1 is better than the reference on balance. Scale-free, so a flight where both are large
+    (the PID's negative aircraft) weighs no more than one where both are small; infinite where a
+    flight ended early, so such a controller is never picked. Measures a flight too short to have
+    (NaN: no straight leg in a quick check) are left out."""
+    if scores["ended_early"]:
+        return math.inf
+    ratios = [(value, reference[flight][key]) for flight in heldout_flights() for key, value in scores[flight].items()]
+    logs = [math.log(v / r) for v, r in ratios if math.isfinite(v) and math.isfinite(r) and v > 0 and r > 0]
+    if not logs:
+        raise ValueError("no held-out measure to compare")
+    return math.exp(sum(logs) / len(logs))
