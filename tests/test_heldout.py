@@ -9,8 +9,10 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 from test_ablation import _run_folder
 
+from training import heldout
 from training.heldout import heldout_flights, relative_score
 from training.policy import shipped_policy_path
 from training.report import ROUTE_SEED
@@ -81,3 +83,24 @@ def test_heldout_refuses_a_folder_without_a_policy_and_clashing_names(tmp_path):
     done = subprocess.run([sys.executable, str(SCRIPT), *map(str, runs), "--pick"], check=False, capture_output=True,
                           text=True, timeout=120)
     assert done.returncode != 0 and "distinct names" in done.stderr
+
+
+class _Crashed:
+    """A route result that ended early, before any turbulent leg."""
+
+    def __init__(self):
+        self.ended_early = True
+        self.arrays = {"turbulence": np.zeros(3), "time_s": np.arange(3.0)}
+
+    @staticmethod
+    def metrics(*_):
+        return dict.fromkeys(("rmse_roll_deg", "rmse_pitch_deg", "rmse_beta_deg"), 9.0)
+
+
+def test_a_crash_before_the_turbulence_is_an_early_end_not_an_error(monkeypatch):
+    monkeypatch.setattr(heldout, "fly_route", lambda controller, config: _Crashed())
+    monkeypatch.setattr(heldout, "steady_state_errors", lambda result, after_s: {"roll_deg": 9.0, "pitch_deg": 9.0})
+    scores = heldout.heldout_scores(lambda: None)
+    assert scores["ended_early"] and all(math.isnan(v) for v in scores["turbulent_5km"].values())
+    assert scores["negative_3km"]["rmse_roll_deg"] == 9.0
+    assert heldout.relative_score(scores, _scores(0.4)) == math.inf

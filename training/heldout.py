@@ -50,7 +50,10 @@ def heldout_scores(controller_factory: Callable[[], AttitudeController], quick: 
         if config.turbulence_legs:
             turbulent = result.arrays["turbulence"] > 0
             if not turbulent.any():
-                raise RuntimeError(f"{name}: the flight ended before its turbulent legs")
+                if not result.ended_early:
+                    raise RuntimeError(f"{name}: the route never reached its turbulent legs {config.turbulence_legs}")
+                scores[name] = dict.fromkeys(RMSE_KEYS, math.nan)  # crashed before them: ended_early says it
+                continue
             t = result.arrays["time_s"][turbulent]
             metrics = result.metrics(float(t[0]), float(t[-1]) + 1e-9)
         else:
