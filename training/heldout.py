@@ -19,11 +19,11 @@ from dataclasses import replace
 
 from jsbsim_env.controllers.base import AttitudeController
 from jsbsim_env.missions import RouteConfig, fly_route
-from training.report import steady_state_errors
+from training.report import ReportPlan, steady_state_errors, turbulent_metrics
 
 SEEDS = {"turbulent": 101, "table9": 102, "calm": 103}  # route seeds, none of them the report's ROUTE_SEED
 RMSE_KEYS = ("rmse_roll_deg", "rmse_pitch_deg", "rmse_beta_deg")
-STEADY_AFTER_S = 60.0  # straight legs are scored from this long after each corner, as in the report
+STEADY_AFTER_S = ReportPlan().steady_after_leg_change_s  # straight legs scored as in the report
 
 
 def heldout_flights(quick: bool = False) -> dict[str, RouteConfig]:
@@ -47,17 +47,11 @@ def heldout_scores(controller_factory: Callable[[], AttitudeController], quick: 
             steady = steady_state_errors(result, STEADY_AFTER_S)
             scores[name] = {"mae_roll_deg": steady["roll_deg"], "mae_pitch_deg": steady["pitch_deg"]}
             continue
-        if config.turbulence_legs:
-            turbulent = result.arrays["turbulence"] > 0
-            if not turbulent.any():
-                if not result.ended_early:
-                    raise RuntimeError(f"{name}: the route never reached its turbulent legs {config.turbulence_legs}")
-                scores[name] = dict.fromkeys(RMSE_KEYS, math.nan)  # crashed before them: ended_early says it
-                continue
-            t = result.arrays["time_s"][turbulent]
-            metrics = result.metrics(float(t[0]), float(t[-1]) + 1e-9)
-        else:
-            metrics = result.metrics()
+        metrics = turbulent_metrics(result) if config.turbulence_legs else result.metrics()
+        if metrics is None:
+            if not result.ended_early:
+                raise RuntimeError(f"{name}: the route never reached its turbulent legs {config.turbulence_legs}")
+            metrics = dict.fromkeys(RMSE_KEYS, math.nan)  # crashed before them: ended_early says it
         scores[name] = {k: float(metrics[k]) for k in RMSE_KEYS}
     return scores
 

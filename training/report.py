@@ -124,6 +124,19 @@ def steady_mask(result: MissionResult, after_s: float) -> np.ndarray:
     return (t - starts) >= after_s
 
 
+def turbulence_span(result: MissionResult) -> tuple[float, float] | None:
+    """First and last time (s) the flight spent in turbulence; None where it never met any."""
+    t = result.arrays["time_s"][result.arrays["turbulence"] > 0]
+    return (float(t[0]), float(t[-1])) if t.size else None
+
+
+def turbulent_metrics(result: MissionResult) -> dict[str, float] | None:
+    """``result.metrics`` from the first to the last turbulent sample (the corners between
+    turbulent legs included); None where the flight met no turbulence."""
+    span = turbulence_span(result)
+    return result.metrics(span[0], span[1] + 1e-9) if span else None
+
+
 def steady_state_errors(result: MissionResult, after_s: float) -> dict[str, float]:
     """Mean absolute roll and pitch error (deg) on the straight parts of the route."""
     a, m = result.arrays, steady_mask(result, after_s)
@@ -312,11 +325,10 @@ def run_report(out_dir: Path | str, policy_path: Path | str | None = None, quick
     def route_10km(name: str) -> Callable[[], None]:
         def run() -> None:
             r = fly("route_10km", name, base)
-            turb = r.arrays["turbulence"] > 0
-            t = r.arrays["time_s"]
+            span = turbulence_span(r)
             entry = _summary(r)
-            if turb.any():
-                entry["turbulent_leg"] = r.metrics(float(t[turb][0]), float(t[turb][-1]) + 1e-9)
+            if span:
+                entry["turbulent_leg"] = turbulent_metrics(r)
             entry["level_window"] = window_metrics(r, *plan.level_window_s)
             # The paper's window is its level flight; on our rectangle a corner falls in it (at
             # about 1344 s), so its straight flight is scored apart, as the steady state is.
@@ -325,8 +337,8 @@ def run_report(out_dir: Path | str, policy_path: Path | str | None = None, quick
             metrics.setdefault("route_10km", {})[name] = entry
             plot_route(r, out / f"fig11_route_10km_{name}.png", f"10 km route, {name}")
             plot_errors(r, out / f"fig12_errors_10km_{name}.png", f"10 km route, {name}: errors and surfaces")
-            if turb.any():
-                window = (float(t[turb][0]) - 20.0, float(t[turb][-1]) + 20.0)
+            if span:
+                window = (span[0] - 20.0, span[1] + 20.0)
                 fig = "fig13" if name == "RL" else "fig14"
                 plot_errors(r, out / f"{fig}_turbulence_{name}.png", f"Turbulent leg, {name}", window)
 
