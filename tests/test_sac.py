@@ -123,3 +123,50 @@ def test_allocator_thresholds_are_raised_on_glibc():
     from training.runtime import tune_allocator
 
     assert tune_allocator() is sys.platform.startswith("linux")
+
+
+def test_caps_action_weights_scale_each_actions_difference():
+    """Zero weight on an action leaves its difference out; all ones is the paper's CAPS; bad
+    weights are refused by name."""
+    from training.caps import caps_penalties, check_action_weights
+
+    mu = torch.zeros(5, ACTION_SIZE)
+    moved = mu.clone()
+    moved[:, 0] = 0.3  # only the aileron differs
+    assert caps_penalties(mu, moved, moved) == caps_penalties(mu, moved, moved, torch.ones(ACTION_SIZE))
+    temporal, spatial = caps_penalties(mu, moved, moved, torch.tensor([0.0, 1.0, 1.0, 1.0]))
+    assert float(temporal) == 0.0 and float(spatial) == 0.0
+    half, _ = caps_penalties(mu, moved, moved, torch.tensor([0.5, 1.0, 1.0, 1.0]))
+    assert float(half) == pytest.approx(0.15)
+    with pytest.raises(ValueError, match="one value per action"):
+        check_action_weights([1.0, 1.0], ACTION_SIZE)
+    with pytest.raises(ValueError, match="non-negative"):
+        check_action_weights([1.0, -1.0, 1.0, float("nan")], ACTION_SIZE)
+    with pytest.raises(ValueError, match="one value per action"):
+        RecurrentSAC(make_actor(16, 32).module[0].module, [CriticNet(16, 32), CriticNet(16, 32)], auto_alpha=True,
+                     caps_action_weights=[1.0, 1.0, 1.0], **SETTINGS)
+
+
+def test_recurrent_lr_steps_the_lstm_layers_at_their_own_rate():
+    """RESeL: the LSTM layers of actor and critics sit in their own Adam groups at recurrent_lr,
+    so that one step moves them by about that much (Adam's first step is lr times the sign)."""
+    torch.manual_seed(6)
+    actor_net = make_actor(16, 32).module[0].module
+    sac = RecurrentSAC(actor_net, [CriticNet(16, 32), CriticNet(16, 32)], auto_alpha=True, recurrent_lr=1e-6,
+                       **SETTINGS)
+    groups = sac.optimizer.param_groups
+    assert [g["lr"] for g in groups] == [3e-4, 1e-6, 3e-4, 1e-6, 3e-4]
+    lstm = {id(p) for g in groups if g["lr"] == 1e-6 for p in g["params"]}
+    assert lstm == {id(p) for m in sac.modules() if isinstance(m, torch.nn.LSTM) for p in m.parameters()} - {
+        id(p) for p in sac.target_critics.parameters()}
+    before = {name: p.detach().clone() for name, p in sac.named_parameters()}
+    sac.update(_batch(seed=7))
+    for name, p in sac.named_parameters():
+        step = (p.detach() - before[name]).abs().max()
+        if ".lstm." in name:
+            assert step <= 1.1e-6
+        elif name.startswith(("actor_net.head", "critics")) and p.requires_grad:
+            assert step > 1e-5, name
+    with pytest.raises(ValueError, match="recurrent_lr"):
+        RecurrentSAC(make_actor(16, 32).module[0].module, [CriticNet(16, 32), CriticNet(16, 32)], auto_alpha=True,
+                     recurrent_lr=-1.0, **SETTINGS)

@@ -111,6 +111,13 @@ def test_config_round_trip_and_command_line():
     assert TrainConfig.from_dict(json.loads(c.to_json())) == c
     with pytest.raises(ValueError, match="unknown settings"):
         TrainConfig.from_dict({"optim": {"learning_rate": 1}})
+    # A list setting takes one value per entry, and a config's list is its own.
+    ns = parser.parse_args(["--caps.action_weights", "0.5", "1", "1", "1", "--optim.recurrent_lr", "3e-5"])
+    c = TrainConfig.from_namespace(ns)
+    assert c.caps.action_weights == [0.5, 1.0, 1.0, 1.0] and c.optim.recurrent_lr == 3e-5
+    assert TrainConfig.from_dict(json.loads(c.to_json())) == c and TrainConfig().caps.action_weights == [1.0] * 4
+    with pytest.raises(SystemExit):
+        parser.parse_args(["--caps.action_weights", "0.5", "1"])
 
 
 def test_train_script_help_lists_the_settings():

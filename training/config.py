@@ -11,15 +11,13 @@ import argparse
 import dataclasses
 import json
 from dataclasses import dataclass, field, fields
-from typing import Any, get_type_hints
+from typing import Any, get_args, get_origin, get_type_hints
 
 PRESETS = ("default", "paper")
 
 
 def _f(default, help: str):
     """A dataclass field with a help line."""
-    if isinstance(default, (list, dict)):
-        return field(default_factory=lambda: default, metadata={"help": help})
     return field(default=default, metadata={"help": help})
 
 
@@ -85,6 +83,8 @@ class OptimSettings:
     auto_alpha: bool = _f(True, "tune the temperature towards target_entropy (SAC v2); false fixes it at alpha "
                                 "as the paper did, which did not learn in our runs (README)")
     target_entropy: float = _f(-4.0, "policy entropy the tuned temperature aims at (SAC v2: minus the action size)")
+    recurrent_lr: float = _f(0.0, "Adam learning rate of the LSTM layers of actor and critics (0: lr). RESeL "
+                                   "(Luo et al. 2024) trains the recurrent encoder slower than the layers after it")
     updates_per_step: float = _f(0.25, "gradient steps per environment step (SPEC: 1; 0.25 learns faster "
                                        "per hour and per gradient step, README)")
 
@@ -109,6 +109,8 @@ class CapsSettings:
     kappa_temporal: float = _f(0.25, "CAPS temporal smoothness weight (SPEC: 1; a quarter of it scored best)")
     sigma_spatial: float = _f(0.05, "std of the observation perturbation for the spatial term (scaled units)")
     batch_size: int = _f(64, "replay samples (of each update's batch) the CAPS terms are averaged over")
+    action_weights: list[float] = field(default_factory=lambda: [1.0, 1.0, 1.0, 1.0], metadata={
+        "help": "weight of each action (aileron, elevator, rudder, throttle) in the CAPS differences (all 1: SPEC)"})
 
 
 @dataclass
@@ -232,6 +234,11 @@ def _parse_bool(text: str) -> bool:
 
 def _add_option(parser, name: str, typ, f: dataclasses.Field) -> None:
     default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
+    if get_origin(typ) is list:  # --name 1 0.5 ...: as many values as the default has
+        (item,) = get_args(typ)
+        parser.add_argument(f"--{name}", dest=f"cfg:{name}", type=item, nargs=len(default), default=None,
+                            metavar=item.__name__.upper(), help=f"{f.metadata.get('help', '')} (default: {default})")
+        return
     kind = _parse_bool if typ is bool else typ
     parser.add_argument(f"--{name}", dest=f"cfg:{name}", type=kind, default=None, metavar=typ.__name__.upper(),
                         help=f"{f.metadata.get('help', '')} (default: {default})")

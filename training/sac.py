@@ -28,7 +28,8 @@ import torch.nn.functional as F
 from tensordict import TensorDictBase
 from torch import nn
 
-from training.caps import caps_penalties
+from jsbsim_env.task import ACTION_SIZE
+from training.caps import caps_penalties, check_action_weights
 from training.networks import ActorNet, CriticNet, StateCriticNet
 
 LOG_2 = math.log(2.0)
@@ -54,6 +55,17 @@ def _head_without_weight_gradients(head: nn.Sequential, x: torch.Tensor) -> torc
     return x
 
 
+def _parameter_groups(module: nn.Module, recurrent_lr: float | None) -> list[dict]:
+    """Adam parameter groups of ``module``: one, or with ``recurrent_lr`` its LSTM layers apart at
+    that rate (the optimiser's state then has more groups, which a resumed run must match)."""
+    if recurrent_lr is None:
+        return [{"params": list(module.parameters())}]
+    lstm_ids = {id(p) for m in module.modules() if isinstance(m, nn.LSTM) for p in m.parameters()}
+    groups = [{"params": [p for p in module.parameters() if id(p) not in lstm_ids]},
+              {"params": [p for p in module.parameters() if id(p) in lstm_ids], "lr": recurrent_lr}]
+    return [g for g in groups if g["params"]]  # a critic without memory has no LSTM
+
+
 class RecurrentSAC(nn.Module):
     """The actor (shared with the collector's policy), twin critics, their targets and the temperature.
 
@@ -64,12 +76,18 @@ class RecurrentSAC(nn.Module):
         auto_alpha: tune the temperature towards ``target_entropy``.
         critic_key: the batch entry the critics read: ``"observation"`` (the actor's window) or
             ``"state"`` (the critics' state, ``StateCriticNet``).
+        caps_action_weights: each action's weight in the CAPS differences (``training.caps``);
+            None weighs all alike, as the paper.
+        recurrent_lr: Adam learning rate of the LSTM layers (None: ``lr``). RESeL (Luo et al. 2024)
+            trains a recurrent encoder slower than the layers after it, because a small change of
+            its weights moves every later step's features.
     """
 
     def __init__(self, actor_net: ActorNet, critics: list[CriticNet | StateCriticNet], gamma: float, tau: float,
                  alpha: float, auto_alpha: bool, target_entropy: float, lr: float, caps_kappa_temporal: float,
                  caps_kappa_spatial: float, caps_sigma_spatial: float, caps_batch_size: int,
-                 critic_key: str = "observation"):
+                 critic_key: str = "observation", caps_action_weights: list[float] | None = None,
+                 recurrent_lr: float | None = None):
         super().__init__()
         self.critic_key = critic_key
         self.actor_net = actor_net
@@ -79,7 +97,16 @@ class RecurrentSAC(nn.Module):
         self.gamma, self.tau, self.target_entropy = gamma, tau, target_entropy
         self.auto_alpha = auto_alpha
         self.caps = (caps_kappa_temporal, caps_kappa_spatial, caps_sigma_spatial, caps_batch_size)
-        params = [{"params": list(actor_net.parameters())}, {"params": list(self.critics.parameters())}]
+        if caps_action_weights is not None:
+            check_action_weights(caps_action_weights, ACTION_SIZE)
+        if caps_action_weights is not None and any(w != 1.0 for w in caps_action_weights):
+            # A buffer, so that it follows the module to its device; all ones is the paper's CAPS.
+            self.register_buffer("caps_weights", torch.tensor(caps_action_weights, dtype=torch.float32))
+        else:
+            self.caps_weights = None
+        if recurrent_lr is not None and not (math.isfinite(recurrent_lr) and recurrent_lr > 0.0):
+            raise ValueError(f"recurrent_lr must be a positive learning rate, got {recurrent_lr}")
+        params = _parameter_groups(actor_net, recurrent_lr) + _parameter_groups(self.critics, recurrent_lr)
         if auto_alpha:
             params.append({"params": [self.log_alpha]})
         # Adam's fused kernel steps every parameter in one call (CPU and CUDA in current torch).
@@ -104,7 +131,7 @@ class RecurrentSAC(nn.Module):
         loc_obs, scale_obs = loc[:n], scale[:n]
         action, log_prob = tanh_normal_sample(loc_obs, scale_obs)
         caps_temporal, caps_spatial = caps_penalties(torch.tanh(loc[:m]), torch.tanh(loc[n:n + m]),
-                                                     torch.tanh(loc[n + m:]))
+                                                     torch.tanh(loc[n + m:]), self.caps_weights)
 
         with torch.no_grad():
             if m < n:
