@@ -6,8 +6,9 @@ choosing on the report's own flights. One row per run.
     python scripts/heldout.py runs/c12_seed0 runs/c12_seed1 runs/c12_seed2 --pick
 
 ``--pick`` also flies the PID and names the run whose scores are best relative to the PID's
-(``training.heldout.relative_score``: the geometric mean of each measure over the PID's), the
-seed to ship with ``scripts/ship_policy.py``.
+(``training.heldout.relative_score``: the geometric mean of each measure over the PID's; a run
+that ends a flight early or whose surfaces chatter in calm air is never picked), the seed to ship
+with ``scripts/ship_policy.py``.
 """
 
 from __future__ import annotations
@@ -20,19 +21,22 @@ import torch
 
 from jsbsim_env.controllers.pid import PIDAttitudeController
 from training.controllers import make_controller
-from training.heldout import heldout_flights, heldout_scores, relative_score
+from training.heldout import CHATTER_LIMIT, SURFACES, heldout_flights, heldout_scores, relative_score
 
 
 def markdown(rows: dict[str, dict]) -> str:
     flights = list(heldout_flights())
     relative = all("relative_to_pid" in scores for scores in rows.values())
     head = ["controller", *(f"{f} {'MAE roll/pitch' if f.startswith('calm') else 'RMSE roll/pitch/β'}, deg"
-                            for f in flights), "ended early", *(["relative to the PID"] if relative else [])]
+                            for f in flights), "ended early",
+            *(["calm surface activity / PID's, ail/elev/rud", "relative to the PID"] if relative else [])]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for name, scores in rows.items():
         cells = [" / ".join(f"{v:.3f}" for v in scores[f].values()) for f in flights]
         cells.append("yes" if scores["ended_early"] else "no")
         if relative:
+            activity, pid = scores["surface_activity"], rows["PID"]["surface_activity"]
+            cells.append(" / ".join(f"{activity[s] / pid[s]:.1f}" if pid[s] > 0 else "—" for s in SURFACES))
             cells.append(f"{scores['relative_to_pid']:.3f}")
         lines.append("| " + " | ".join([name, *cells]) + " |")
     return "\n".join(lines)
@@ -72,7 +76,8 @@ def main() -> None:
         runs = {run.name: run for run in args.runs}
         best = min(runs, key=lambda name: rows[name]["relative_to_pid"])
         if rows[best]["relative_to_pid"] == float("inf"):
-            raise SystemExit("every run ended a held-out flight early: none to pick")
+            raise SystemExit(f"every run ended a held-out flight early or moved a surface more than {CHATTER_LIMIT:g} "
+                             "times the PID's in calm air: none to pick")
         print(f"picked: {runs[best]} (relative to the PID {rows[best]['relative_to_pid']:.3f})")
 
 

@@ -34,6 +34,7 @@ def _scores(value: float, ended_early: bool = False) -> dict:
         keys = ("mae_roll_deg", "mae_pitch_deg") if flight.startswith("calm") else ("rmse_roll_deg", "rmse_pitch_deg",
                                                                                     "rmse_beta_deg")
         scores[flight] = dict.fromkeys(keys, value)
+    scores["surface_activity"] = dict.fromkeys(heldout.SURFACES, 1e-6)
     return scores
 
 
@@ -49,6 +50,20 @@ def test_relative_score_is_the_geometric_mean_of_the_ratios():
     assert relative_score(_scores(0.1, ended_early=True), pid) == math.inf
 
 
+def test_a_chattering_surface_is_refused_whatever_its_errors():
+    """Surface activity gates the score without entering the mean: within CHATTER_LIMIT times the
+    PID's it changes nothing, beyond it the score is infinite."""
+    pid = _scores(0.4)
+    busy = _scores(0.2)
+    busy["surface_activity"]["elevator"] = 0.9 * heldout.CHATTER_LIMIT * 1e-6
+    assert heldout.chattering_surfaces(busy, pid) == {} and math.isclose(relative_score(busy, pid), 0.5)
+    busy["surface_activity"]["elevator"] = 1.1 * heldout.CHATTER_LIMIT * 1e-6
+    assert set(heldout.chattering_surfaces(busy, pid)) == {"elevator"}
+    assert relative_score(busy, pid) == math.inf
+    busy["surface_activity"]["elevator"] = math.nan  # no straight leg (a quick check): no verdict
+    assert math.isclose(relative_score(busy, pid), 0.5)
+
+
 def test_heldout_scores_runs_and_the_pid(tmp_path):
     run = _run_folder(tmp_path, "cand_seed0", 0)
     command = [sys.executable, str(SCRIPT), str(run), "--pid", "--quick"]
@@ -57,7 +72,8 @@ def test_heldout_scores_runs_and_the_pid(tmp_path):
     rows = json.loads(done.stdout)
     assert list(rows) == ["PID", "cand_seed0"]
     for scores in rows.values():
-        assert set(scores) == {"ended_early", "relative_to_pid", *heldout_flights()}
+        assert set(scores) == {"ended_early", "relative_to_pid", "surface_activity", *heldout_flights()}
+        assert set(scores["surface_activity"]) == set(heldout.SURFACES)
         assert set(scores["turbulent_5km"]) == {"rmse_roll_deg", "rmse_pitch_deg", "rmse_beta_deg"}
         assert set(scores["calm_15km"]) == {"mae_roll_deg", "mae_pitch_deg"}
     assert rows["PID"]["relative_to_pid"] == 1.0 and rows["cand_seed0"]["relative_to_pid"] > 0
@@ -93,13 +109,19 @@ class _Crashed:
         self.arrays = {"turbulence": np.zeros(3), "time_s": np.arange(3.0)}
 
     @staticmethod
+    def window(*_):
+        return np.zeros(3, dtype=bool)
+
+    @staticmethod
     def metrics(*_):
-        return dict.fromkeys(("rmse_roll_deg", "rmse_pitch_deg", "rmse_beta_deg"), 9.0)
+        return dict.fromkeys(("rmse_roll_deg", "rmse_pitch_deg", "rmse_beta_deg", "smoothness_aileron",
+                              "smoothness_elevator", "smoothness_rudder"), 9.0)
 
 
 def test_a_crash_before_the_turbulence_is_an_early_end_not_an_error(monkeypatch):
     monkeypatch.setattr(heldout, "fly_route", lambda controller, config: _Crashed())
     monkeypatch.setattr(heldout, "steady_state_errors", lambda result, after_s: {"roll_deg": 9.0, "pitch_deg": 9.0})
+    monkeypatch.setattr(heldout, "steady_mask", lambda result, after_s: np.zeros(3, dtype=bool))
     scores = heldout.heldout_scores(lambda: None)
     assert scores["ended_early"] and all(math.isnan(v) for v in scores["turbulent_5km"].values())
     assert scores["negative_3km"]["rmse_roll_deg"] == 9.0

@@ -7,6 +7,12 @@ choosing among trained seeds without choosing on the report's own flights.
 | ``positive_3km``, ``negative_3km`` | 3 km, calm, SPEC Table 9 aircraft, seed 102 | RMSE over the whole route |
 | ``calm_15km`` | 15 km, calm, seed 103 | mean absolute roll / pitch error on the straight legs |
 
+Beside the errors, the calm flight measures how much each surface moves on the straight legs
+(``surface_activity``: Sm of its commands, ``jsbsim_env.metrics``). A policy can buy a little
+tracking with a surface that chatters between large deflections every step; that is no
+controller to fly, and the errors alone do not show it. ``relative_score`` refuses a policy whose
+surface moves more than ``CHATTER_LIMIT`` times the reference's.
+
 The report flies 10 km (turbulence and Table 9), 1 km and 20 km, all with route seed 11
 (``training.report.ROUTE_SEED``); none of these flights is one of its.
 """
@@ -19,11 +25,17 @@ from dataclasses import replace
 
 from jsbsim_env.controllers.base import AttitudeController
 from jsbsim_env.missions import RouteConfig, fly_route
-from training.report import ReportPlan, steady_state_errors, turbulent_metrics
+from training.report import ReportPlan, steady_mask, steady_state_errors, turbulent_metrics, window_metrics
 
 SEEDS = {"turbulent": 101, "table9": 102, "calm": 103}  # route seeds, none of them the report's ROUTE_SEED
 RMSE_KEYS = ("rmse_roll_deg", "rmse_pitch_deg", "rmse_beta_deg")
 STEADY_AFTER_S = ReportPlan().steady_after_leg_change_s  # straight legs scored as in the report
+SURFACES = ("aileron", "elevator", "rudder")
+# Measured on this flight's straight legs (the largest of the three ratios to the PID's): 1.1 to
+# 3.1 for the policies whose surfaces move smoothly on the report's routes, 5.5 for one whose
+# elevator is smooth at 10 km; 16, 38 and 63 for three whose aileron or elevator chatters there
+# (the elevator between -6 and +8 deg every step; docs/training.md). 10 lies in the gap.
+CHATTER_LIMIT = 10.0
 
 
 def heldout_flights(quick: bool = False) -> dict[str, RouteConfig]:
@@ -46,6 +58,8 @@ def heldout_scores(controller_factory: Callable[[], AttitudeController], quick: 
         if name == "calm_15km":
             steady = steady_state_errors(result, STEADY_AFTER_S)
             scores[name] = {"mae_roll_deg": steady["roll_deg"], "mae_pitch_deg": steady["pitch_deg"]}
+            straight = window_metrics(result, 0.0, math.inf, steady_mask(result, STEADY_AFTER_S))
+            scores["surface_activity"] = {s: float(straight[f"smoothness_{s}"]) for s in SURFACES}
             continue
         metrics = turbulent_metrics(result) if config.turbulence_legs else result.metrics()
         if metrics is None:
@@ -56,13 +70,22 @@ def heldout_scores(controller_factory: Callable[[], AttitudeController], quick: 
     return scores
 
 
+def chattering_surfaces(scores: dict, reference: dict, limit: float = CHATTER_LIMIT) -> dict[str, float]:
+    """The surfaces that move more than ``limit`` times the reference's on the calm straight legs,
+    each with its ratio (empty where none does, or where a flight too short has no straight leg)."""
+    ratios = {s: scores["surface_activity"][s] / reference["surface_activity"][s] for s in SURFACES
+              if math.isfinite(scores["surface_activity"][s]) and reference["surface_activity"][s] > 0}
+    return {s: r for s, r in ratios.items() if r > limit}
+
+
 def relative_score(scores: dict, reference: dict) -> float:
     """Geometric mean, over every held-out measure, of ``scores`` over ``reference`` (the PID's):
     below 1 is better than the reference on balance. Scale-free, so a flight where both are large
     (the PID's negative aircraft) weighs no more than one where both are small; infinite where a
-    flight ended early, so such a controller is never picked. Measures a flight too short to have
-    (NaN: no straight leg in a quick check) are left out."""
-    if scores["ended_early"]:
+    flight ended early or a surface chatters (``chattering_surfaces``), so such a controller is
+    never picked. Measures a flight too short to have (NaN: no straight leg in a quick check) are
+    left out."""
+    if scores["ended_early"] or chattering_surfaces(scores, reference):
         return math.inf
     ratios = [(value, reference[flight][key]) for flight in heldout_flights() for key, value in scores[flight].items()]
     logs = [math.log(v / r) for v, r in ratios if math.isfinite(v) and math.isfinite(r) and v > 0 and r > 0]
