@@ -112,10 +112,11 @@ def test_config_round_trip_and_command_line():
     with pytest.raises(ValueError, match="unknown settings"):
         TrainConfig.from_dict({"optim": {"learning_rate": 1}})
     # A list setting takes one value per entry, and a config's list is its own.
-    ns = parser.parse_args(["--caps.action_weights", "0.5", "1", "1", "1", "--optim.recurrent_lr", "3e-5"])
+    ns = parser.parse_args(["--caps.action_weights", "1", "1", "0.5", "1", "--optim.recurrent_lr", "3e-5"])
     c = TrainConfig.from_namespace(ns)
-    assert c.caps.action_weights == [0.5, 1.0, 1.0, 1.0] and c.optim.recurrent_lr == 3e-5
-    assert TrainConfig.from_dict(json.loads(c.to_json())) == c and TrainConfig().caps.action_weights == [1.0] * 4
+    assert c.caps.action_weights == [1.0, 1.0, 0.5, 1.0] and c.optim.recurrent_lr == 3e-5
+    assert TrainConfig.from_dict(json.loads(c.to_json())) == c
+    assert TrainConfig().caps.action_weights == [0.5, 1.0, 1.0, 1.0] != c.caps.action_weights
     with pytest.raises(SystemExit):
         parser.parse_args(["--caps.action_weights", "0.5", "1"])
 
@@ -196,7 +197,7 @@ def test_the_paper_preset_is_spec_section_3():
     assert not paper.optim.auto_alpha and paper.optim.alpha == 0.2 and paper.optim.updates_per_step == 1.0
     assert paper.buffer.relabel_fraction == 0.0 and paper.env.error_integral_decay == 0.0
     assert paper.env.integral_trim == 0.0 and paper.env.sideslip_weight == 1.0 and paper.env.rudder_trim_s == 0.0
-    assert paper.env.roll_weight == 1.0
+    assert paper.env.roll_weight == 1.0 and paper.caps.action_weights == [1.0] * 4
     assert paper.env.external_throttle == 0.0 and paper.env.penalty_tail == 0.0 and paper.env.trims_in_surfaces
     assert (paper.optim.lr, paper.optim.gamma, paper.optim.tau, paper.buffer.batch_size) == (3e-4, 0.99, 0.005, 256)
     assert (paper.caps.kappa_spatial, paper.caps.kappa_temporal, paper.network.lstm_hidden) == (2.0, 1.0, 64)
