@@ -67,7 +67,8 @@ def main() -> None:
             gamma=config.optim.gamma, tau=config.optim.tau, alpha=config.optim.alpha,
             auto_alpha=config.optim.auto_alpha, target_entropy=config.optim.target_entropy, lr=config.optim.lr,
             caps_kappa_temporal=config.caps.kappa_temporal, caps_kappa_spatial=config.caps.kappa_spatial,
-            caps_sigma_spatial=config.caps.sigma_spatial, caps_batch_size=config.caps.batch_size)
+            caps_sigma_spatial=config.caps.sigma_spatial, caps_batch_size=config.caps.batch_size,
+            caps_action_weights=config.caps.action_weights)
 
         def time_updates(update) -> float:
             for _ in range(3):

@@ -43,6 +43,7 @@ def caps_penalties(mu: torch.Tensor, mu_next: torch.Tensor, mu_near: torch.Tenso
     each action's difference times its entry of ``weights`` where given."""
     d_next, d_near = mu - mu_next, mu - mu_near
     if weights is not None:
+        weights = weights.to(d_next.device, d_next.dtype)  # a no-op where they already match
         d_next, d_near = d_next * weights, d_near * weights
     temporal = torch.linalg.vector_norm(d_next, dim=-1).mean()
     spatial = torch.linalg.vector_norm(d_near, dim=-1).mean()

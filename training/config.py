@@ -148,8 +148,8 @@ class TrainConfig:
         """A named starting configuration: ``"default"`` (this package's) or ``"paper"`` (SPEC
         section 3 as far as this environment allows: a fixed temperature of 0.2, one gradient step
         per environment step, no goal relabelling, no error integrals, integral trim or external
-        throttle, Eq. 22's reward, CAPS weights 2 and 1 on every action alike; the observation keeps the last action, without which nothing
-        learned, README)."""
+        throttle, Eq. 22's reward, CAPS weights 2 and 1 on every action alike; the observation
+        keeps the last action, without which nothing learned, README)."""
         config = cls()
         if name == "paper":
             config.optim.auto_alpha = False
