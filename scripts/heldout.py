@@ -15,13 +15,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 from pathlib import Path
 
 import torch
 
 from jsbsim_env.controllers.pid import PIDAttitudeController
 from training.controllers import make_controller
-from training.heldout import CHATTER_LIMIT, SURFACES, heldout_flights, heldout_scores, relative_score
+from training.heldout import CHATTER_LIMIT, heldout_flights, heldout_scores, relative_score, surface_activity_ratios
 
 
 def markdown(rows: dict[str, dict]) -> str:
@@ -35,8 +36,8 @@ def markdown(rows: dict[str, dict]) -> str:
         cells = [" / ".join(f"{v:.3f}" for v in scores[f].values()) for f in flights]
         cells.append("yes" if scores["ended_early"] else "no")
         if relative:
-            activity, pid = scores["surface_activity"], rows["PID"]["surface_activity"]
-            cells.append(" / ".join(f"{activity[s] / pid[s]:.1f}" if pid[s] > 0 else "—" for s in SURFACES))
+            ratios = surface_activity_ratios(scores, rows["PID"]).values()
+            cells.append(" / ".join("—" if math.isnan(r) else f"{r:.1f}" for r in ratios))
             cells.append(f"{scores['relative_to_pid']:.3f}")
         lines.append("| " + " | ".join([name, *cells]) + " |")
     return "\n".join(lines)

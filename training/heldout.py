@@ -25,7 +25,7 @@ from dataclasses import replace
 
 from jsbsim_env.controllers.base import AttitudeController
 from jsbsim_env.missions import RouteConfig, fly_route
-from training.report import ReportPlan, steady_mask, steady_state_errors, turbulent_metrics, window_metrics
+from training.report import ReportPlan, steady_mask, turbulent_metrics, window_metrics
 
 SEEDS = {"turbulent": 101, "table9": 102, "calm": 103}  # route seeds, none of them the report's ROUTE_SEED
 RMSE_KEYS = ("rmse_roll_deg", "rmse_pitch_deg", "rmse_beta_deg")
@@ -56,9 +56,10 @@ def heldout_scores(controller_factory: Callable[[], AttitudeController], quick: 
         result = fly_route(controller_factory(), config)
         scores["ended_early"] |= bool(result.ended_early)
         if name == "calm_15km":
-            steady = steady_state_errors(result, STEADY_AFTER_S)
-            scores[name] = {"mae_roll_deg": steady["roll_deg"], "mae_pitch_deg": steady["pitch_deg"]}
+            # One pass over the straight legs: their mean absolute errors (the report's steady
+            # state) and each surface's Sm.
             straight = window_metrics(result, 0.0, math.inf, steady_mask(result, STEADY_AFTER_S))
+            scores[name] = {k: float(straight[k]) for k in ("mae_roll_deg", "mae_pitch_deg")}
             scores["surface_activity"] = {s: float(straight[f"smoothness_{s}"]) for s in SURFACES}
             continue
         metrics = turbulent_metrics(result) if config.turbulence_legs else result.metrics()
@@ -70,12 +71,17 @@ def heldout_scores(controller_factory: Callable[[], AttitudeController], quick: 
     return scores
 
 
+def surface_activity_ratios(scores: dict, reference: dict) -> dict[str, float]:
+    """Each surface's Sm on the calm straight legs over the reference's; NaN where either is
+    missing (a flight too short to have a straight leg) or the reference's is zero."""
+    mine, theirs = scores["surface_activity"], reference["surface_activity"]
+    return {s: mine[s] / theirs[s] if math.isfinite(mine[s]) and theirs[s] > 0 else math.nan for s in SURFACES}
+
+
 def chattering_surfaces(scores: dict, reference: dict, limit: float = CHATTER_LIMIT) -> dict[str, float]:
     """The surfaces that move more than ``limit`` times the reference's on the calm straight legs,
     each with its ratio (empty where none does, or where a flight too short has no straight leg)."""
-    ratios = {s: scores["surface_activity"][s] / reference["surface_activity"][s] for s in SURFACES
-              if math.isfinite(scores["surface_activity"][s]) and reference["surface_activity"][s] > 0}
-    return {s: r for s, r in ratios.items() if r > limit}
+    return {s: r for s, r in surface_activity_ratios(scores, reference).items() if r > limit}
 
 
 def relative_score(scores: dict, reference: dict) -> float:
