@@ -68,7 +68,7 @@ def main() -> None:
             auto_alpha=config.optim.auto_alpha, target_entropy=config.optim.target_entropy, lr=config.optim.lr,
             caps_kappa_temporal=config.caps.kappa_temporal, caps_kappa_spatial=config.caps.kappa_spatial,
             caps_sigma_spatial=config.caps.sigma_spatial, caps_batch_size=config.caps.batch_size,
-            caps_action_weights=config.caps.action_weights)
+            caps_action_weights=config.caps.action_weights, caps_goal_aware=config.caps.goal_aware)
 
         def time_updates(update) -> float:
             for _ in range(3):

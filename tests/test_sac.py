@@ -170,3 +170,37 @@ def test_recurrent_lr_steps_the_lstm_layers_at_their_own_rate():
     with pytest.raises(ValueError, match="recurrent_lr"):
         RecurrentSAC(make_actor(16, 32).module[0].module, [CriticNet(16, 32), CriticNet(16, 32)], auto_alpha=True,
                      recurrent_lr=-1.0, **SETTINGS)
+
+
+def test_goal_aware_caps_leaves_goal_steps_and_goal_noise_out():
+    """Goal-aware CAPS: a transition whose only change is a goal step costs no temporal penalty
+    (the paper's CAPS charges it), the spatial noise spares the goal columns, and the update's
+    penalty is the reference's on the same batch."""
+    from jsbsim_env.task import GOAL_COLUMNS
+    from training.caps import caps_losses, goal_held_windows, spatial_noise
+
+    torch.manual_seed(8)
+    batch = _batch(n=16, seed=9)
+    obs = batch["observation"]
+    stepped = obs.clone()
+    stepped[::2, -1, GOAL_COLUMNS] += 0.5  # goals step in every other row, nothing else moves
+    batch["next", "observation"] = stepped
+    rows, held = goal_held_windows(obs, stepped)
+    assert rows.tolist() == list(range(0, 16, 2)) and torch.equal(held, obs[::2])
+
+    noise = spatial_noise(obs, 0.05, goal_aware=True)
+    assert not noise[..., GOAL_COLUMNS].any() and noise[..., :-3].abs().max() > 0
+    assert spatial_noise(obs, 0.05)[..., GOAL_COLUMNS].abs().max() > 0
+
+    settings = {**SETTINGS, "caps_sigma_spatial": 0.0}
+    actor_net = make_actor(16, 32).module[0].module
+    critics = [CriticNet(16, 32), CriticNet(16, 32)]
+    aware = RecurrentSAC(actor_net, critics, auto_alpha=True, caps_goal_aware=True, **settings)
+    plain = RecurrentSAC(actor_net, critics, auto_alpha=True, **settings)
+    with torch.no_grad():
+        assert float(aware.losses(batch)["caps_temporal"]) == 0.0
+        assert float(plain.losses(batch)["caps_temporal"]) > 1e-4
+        moved = batch.clone()
+        moved["next", "observation"] = _batch(n=16, seed=10)["next", "observation"]
+        expected, _ = caps_losses(actor_net, moved, 0.0, goal_aware=True)
+        assert float(aware.losses(moved)["caps_temporal"]) == pytest.approx(float(expected), rel=1e-5)

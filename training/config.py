@@ -116,6 +116,9 @@ class CapsSettings:
     action_weights: list[float] = field(default_factory=lambda: [0.5, 1.0, 1.0, 1.0], metadata={
         "help": "weight of each action (aileron, elevator, rudder, throttle) in the CAPS differences (all 1: SPEC; "
                 "half on the aileron scored best)"})
+    goal_aware: bool = _f(False, "goal-aware CAPS: the temporal term holds the goals across a step and the spatial "
+                                 "noise leaves them alone, so that smoothing does not slow the response to a "
+                                 "command (False: SPEC's CAPS)")
 
 
 @dataclass

@@ -5,7 +5,8 @@ temperature) plus CAPS (``training.caps``), written out for these networks so th
 done twice (``scripts/bench_train.py`` times it against ``SACLoss`` with the same networks):
 
 * the actor's LSTM runs once, on the batch's observations, on the next observations of the CAPS
-  subset and on their noisy copies; the target actions of the remaining next observations come
+  subset and on their noisy copies (goal-aware CAPS adds the few next windows whose goals stepped,
+  with the goals held); the target actions of the remaining next observations come
   from one pass without gradients;
 * each critic's LSTM runs once on the observations: its features feed the critic loss and,
   detached, the actor loss, whose gradient reaches the actions only (the critic's head enters it
@@ -29,7 +30,7 @@ from tensordict import TensorDictBase
 from torch import nn
 
 from jsbsim_env.task import ACTION_SIZE
-from training.caps import caps_penalties, check_action_weights
+from training.caps import caps_penalties, check_action_weights, goal_held_windows, spatial_noise
 from training.networks import ActorNet, CriticNet, StateCriticNet
 
 LOG_2 = math.log(2.0)
@@ -81,14 +82,17 @@ class RecurrentSAC(nn.Module):
         recurrent_lr: Adam learning rate of the LSTM layers (None: ``lr``). RESeL (Luo et al. 2024)
             trains a recurrent encoder slower than the layers after it, because a small change of
             its weights moves every later step's features.
+        caps_goal_aware: goal-aware CAPS (``training.caps``): the temporal term holds the goals,
+            the spatial noise leaves them alone (False: the paper's CAPS).
     """
 
     def __init__(self, actor_net: ActorNet, critics: list[CriticNet | StateCriticNet], gamma: float, tau: float,
                  alpha: float, auto_alpha: bool, target_entropy: float, lr: float, caps_kappa_temporal: float,
                  caps_kappa_spatial: float, caps_sigma_spatial: float, caps_batch_size: int,
                  critic_key: str = "observation", caps_action_weights: list[float] | None = None,
-                 recurrent_lr: float | None = None):
+                 recurrent_lr: float | None = None, caps_goal_aware: bool = False):
         super().__init__()
+        self.caps_goal_aware = caps_goal_aware
         self.critic_key = critic_key
         self.actor_net = actor_net
         self.critics = nn.ModuleList(critics)
@@ -125,13 +129,20 @@ class RecurrentSAC(nn.Module):
         m = min(caps_n, n)
         alpha = self.log_alpha.exp()
 
-        # The actor, once with gradients: observations, the CAPS subset's next and noisy observations.
-        noisy = obs[:m] + sigma_s * torch.randn_like(obs[:m])
-        loc, scale = self.actor_net(torch.cat([obs, next_obs[:m], noisy], dim=0))
+        # The actor, once with gradients: observations, the CAPS subset's next and noisy observations
+        # (and, goal-aware, the next windows whose goals stepped, with the goals held).
+        windows = [obs, next_obs[:m], obs[:m] + spatial_noise(obs[:m], sigma_s, self.caps_goal_aware)]
+        if self.caps_goal_aware:
+            held_rows, held = goal_held_windows(obs[:m], next_obs[:m])
+            windows.append(held)
+        loc, scale = self.actor_net(torch.cat(windows, dim=0))
         loc_obs, scale_obs = loc[:n], scale[:n]
         action, log_prob = tanh_normal_sample(loc_obs, scale_obs)
-        caps_temporal, caps_spatial = caps_penalties(torch.tanh(loc[:m]), torch.tanh(loc[n:n + m]),
-                                                     torch.tanh(loc[n + m:]), self.caps_weights)
+        loc_next_caps = loc[n:n + m]
+        if self.caps_goal_aware:
+            loc_next_caps = loc_next_caps.index_copy(0, held_rows, loc[n + 2 * m:])
+        caps_temporal, caps_spatial = caps_penalties(torch.tanh(loc[:m]), torch.tanh(loc_next_caps),
+                                                     torch.tanh(loc[n + m:n + 2 * m]), self.caps_weights)
 
         with torch.no_grad():
             if m < n:

@@ -117,7 +117,8 @@ class Trainer:
             caps_kappa_temporal=c.caps.kappa_temporal, caps_kappa_spatial=c.caps.kappa_spatial,
             caps_sigma_spatial=c.caps.sigma_spatial, caps_batch_size=c.caps.batch_size,
             critic_key="state" if c.network.critic == "state" else "observation",
-            caps_action_weights=c.caps.action_weights, recurrent_lr=c.optim.recurrent_lr or None)
+            caps_action_weights=c.caps.action_weights, recurrent_lr=c.optim.recurrent_lr or None,
+            caps_goal_aware=c.caps.goal_aware)
         self.buffer = TensorDictReplayBuffer(storage=LazyTensorStorage(c.buffer.capacity), batch_size=c.buffer.batch_size)
         self.counters = Counters()
         self.fingerprint = resume_fingerprint(c)
