@@ -110,6 +110,8 @@ class CoreConfig:
                              f"{sorted(turb.SEVERITIES)}")
         if self.turbulence_clip not in turb.CLIPS:
             raise ValueError(f"turbulence_clip {self.turbulence_clip!r}: use one of {turb.CLIPS}")
+        if not (0.0 <= self.turbulence_sigma_mps < math.inf):  # NaN fails too
+            raise ValueError(f"turbulence_sigma_mps must be finite and >= 0, got {self.turbulence_sigma_mps}")
         if not self.servo_rate_limit_degps > 0.0:  # NaN fails too
             raise ValueError(f"servo_rate_limit_degps must be positive, got {self.servo_rate_limit_degps}")
 
