@@ -68,9 +68,11 @@ def main() -> None:
         "run_wall_clock_s": wall["whole_run_s"], "run_frames": wall["frames"],
         "training_evaluation": meta["evaluation"],
         "config": config,
-        # a flight-time setting: scripts/set_goal_trim.py may have set it after training
+        # flight-time settings: scripts/set_trims.py may have set them after training
         "goal_trim_s": meta["goal_trim_s"],
         "goal_trim_set_after_training": config["env"].get("goal_trim_s", 0.0) != meta["goal_trim_s"],
+        "integral_trim": meta["integral_trim"],
+        "integral_trim_set_after_training": config["env"].get("integral_trim", 0.0) != meta["integral_trim"],
         "evaluation": results,
     }
     target.with_suffix(".json").write_text(json.dumps(record, indent=2, default=float))

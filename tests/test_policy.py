@@ -19,7 +19,15 @@ from jsbsim_env.task import (
 )
 from training.checkpoint import atomic_save, checked_load
 from training.config import TrainConfig
-from training.policy import PolicyFileError, PolicyRuntime, export_onnx, load_policy, policy_digest, set_goal_trim
+from training.policy import (
+    PolicyFileError,
+    PolicyRuntime,
+    export_onnx,
+    load_policy,
+    policy_digest,
+    set_goal_trim,
+    set_integral_trim,
+)
 from training.trainer import Trainer
 
 
@@ -141,6 +149,26 @@ def test_set_goal_trim_rewrites_only_that_setting(policy_file, tmp_path):
     digest = policy_digest(copy)
     with pytest.raises(ValueError, match="goal trim time constant"):
         set_goal_trim(copy, 0.01)
+    assert policy_digest(copy) == digest  # a refused setting leaves the file as it was
+
+
+def test_set_integral_trim_changes_only_the_trim_gains_of_a_policy_trained_with_hidden_trims(policy_file, tmp_path):
+    path, _ = policy_file
+    copy = tmp_path / "policy.pt"
+    copy.write_bytes(path.read_bytes())
+    assert load_policy(path)[1]["integral_trim"] == 0.5 and not load_policy(path)[1]["observe_trims"]
+    set_integral_trim(copy, 1.0)
+    before, after = checked_load(path), checked_load(copy)
+    assert {k for k in before if k != "actor" and before[k] != after[k]} == {"integral_trim"}
+    assert PolicyRuntime(copy, backend="torch")._trim.fraction == 1.0
+    digest = policy_digest(copy)
+    for bad in (0.0, -1.0, float("nan"), 2.5):
+        with pytest.raises(ValueError, match="integral_trim"):
+            set_integral_trim(copy, bad)
+    untrimmed = tmp_path / "untrimmed.pt"
+    atomic_save({**before, "integral_trim": 0.0}, untrimmed)
+    with pytest.raises(ValueError, match="hidden integral trims"):
+        set_integral_trim(untrimmed, 1.0)
     assert policy_digest(copy) == digest  # a refused setting leaves the file as it was
 
 

@@ -105,6 +105,14 @@ def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
     return actor, meta
 
 
+def _rewrite_setting(path: Path, key: str, value: float) -> None:
+    """Set one flight-time setting of a policy file, in place and atomically, after ``load_policy``
+    accepted the file as it is and as it will be (a refused value leaves the file as it was)."""
+    data = checked_load(path)
+    data[key] = float(value)
+    atomic_save(data, path)
+
+
 def set_goal_trim(path: Path | str, time_constant_s: float) -> None:
     """Make the policy file at ``path`` fly with goal trim of this time constant (0: none), in place
     and atomically. The goal trim is a flight-time setting (training episodes go without it), so a
@@ -113,9 +121,26 @@ def set_goal_trim(path: Path | str, time_constant_s: float) -> None:
     load_policy(path)  # a clear error for a missing or broken file, before anything is written
     if time_constant_s:
         GoalIntegrator(time_constant_s)  # refuses a time constant out of range
-    data = checked_load(path)
-    data["goal_trim_s"] = float(time_constant_s)
-    atomic_save(data, path)
+    _rewrite_setting(path, "goal_trim_s", time_constant_s)
+
+
+def set_integral_trim(path: Path | str, fraction: float) -> None:
+    """Make the policy file at ``path`` fly with its integral trim at this fraction of the PID's
+    integral gains (``jsbsim_env.controllers.integral_trim``), in place and atomically.
+
+    Only the gains change: the policy must have been trained with hidden trims (``integral_trim`` > 0,
+    ``observe_trims`` False), so that its observation is the same at any gain and it learned to fly
+    with a trim beside it; a policy trained without one, or one that sees its trims, is refused."""
+    path = Path(path)
+    _, meta = load_policy(path)
+    if meta["integral_trim"] <= 0.0 or meta["observe_trims"]:
+        raise ValueError(f"{path} was trained with integral_trim {meta['integral_trim']:g} and observe_trims "
+                         f"{meta['observe_trims']}: only a policy trained with hidden integral trims can fly "
+                         "with other trim gains")
+    if not fraction > 0.0:  # NaN fails too
+        raise ValueError(f"integral_trim must be > 0 for a policy trained with one, got {fraction}")
+    check_trim_settings(fraction, meta["observe_trims"], meta["rudder_trim_s"])
+    _rewrite_setting(path, "integral_trim", fraction)
 
 
 def policy_digest(path: Path | str) -> str:
@@ -313,5 +338,6 @@ __all__ = [
     "onnx_source_digest",
     "policy_digest",
     "set_goal_trim",
+    "set_integral_trim",
     "shipped_policy_path",
 ]
