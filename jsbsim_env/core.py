@@ -110,6 +110,12 @@ class CoreConfig:
                              f"{sorted(turb.SEVERITIES)}")
         if self.turbulence_clip not in turb.CLIPS:
             raise ValueError(f"turbulence_clip {self.turbulence_clip!r}: use one of {turb.CLIPS}")
+        for name in ("delay_s", "control_interval_s"):
+            low, high = getattr(self, name)
+            if not (0.0 <= low <= high < math.inf):  # NaN fails too
+                raise ValueError(f"{name} must be a finite range (low, high) with 0 <= low <= high, got {(low, high)}")
+        if not self.control_interval_s[0] > 0.0:
+            raise ValueError(f"control_interval_s must be positive, got {self.control_interval_s}")
         if not (0.0 <= self.turbulence_sigma_mps < math.inf):  # NaN fails too
             raise ValueError(f"turbulence_sigma_mps must be finite and >= 0, got {self.turbulence_sigma_mps}")
         if not self.servo_rate_limit_degps > 0.0:  # NaN fails too

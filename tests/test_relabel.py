@@ -86,7 +86,7 @@ def test_a_reshaped_reward_trains_on_its_reward_and_evaluates_on_eq_22():
 
     shaped = TaskConfig(sideslip_weight=3.0, penalty_tail=0.2, roll_weight=2.0)
     env = make_env(num_envs=2, config=shaped, seed=5)
-    rougher = dataclasses.replace(shaped, core=CoreConfig(turbulence_sigma_mps=1.5))
+    rougher = dataclasses.replace(shaped, core=CoreConfig(turbulence_sigma_mps=1.5, delay_s=(0.0, 0.02)))
     torch.manual_seed(0)
     data = env.rollout(30, break_when_any_done=False).reshape(-1)
     achieved, goal = data["next", "achieved"].double().numpy(), _goals(data["observation"])
@@ -104,7 +104,7 @@ def test_a_reshaped_reward_trains_on_its_reward_and_evaluates_on_eq_22():
     weighted = evaluate_policy(policy, shaped, episodes=2, max_steps=20, seed=3)
     plain = evaluate_policy(policy, TaskConfig(), episodes=2, max_steps=20, seed=3)
     assert weighted["return_norm"] == plain["return_norm"]
-    # ... and in SPEC's turbulence whatever turbulence the run trains in (which does change a flight).
+    # ... and in SPEC's turbulence and delay whatever the run trains in (which does change a flight).
     assert evaluate_policy(policy, rougher, episodes=2, max_steps=20, seed=3)["return_norm"] == plain["return_norm"]
     rough_env = make_env(num_envs=2, config=rougher, seed=5)
     calm_env = make_env(num_envs=2, config=TaskConfig(), seed=5)
@@ -112,10 +112,15 @@ def test_a_reshaped_reward_trains_on_its_reward_and_evaluates_on_eq_22():
     assert not torch.equal(rough, calm)
 
 
-def test_turbulence_sigma_is_checked():
+def test_turbulence_and_delay_settings_are_checked():
     for bad in (-0.1, float("nan"), float("inf")):
         with pytest.raises(ValueError, match="turbulence_sigma_mps"):
             CoreConfig(turbulence_sigma_mps=bad)
+    for bad in ((0.1, 0.05), (-0.01, 0.1), (0.08, float("nan"))):
+        with pytest.raises(ValueError, match="delay_s"):
+            CoreConfig(delay_s=bad)
+    with pytest.raises(ValueError, match="control_interval_s"):
+        CoreConfig(control_interval_s=(0.0, 0.05))
 
 
 def test_achieved_state_reproduces_the_environment_reward(rollout):

@@ -49,6 +49,9 @@ class EnvSettings:
     penalty_tail: float = _f(0.1, "training reward: share of each Eq. 22 penalty's slope kept beyond its cap, so that a "
                                   "large error still costs more than a small one (0: SPEC Eq. 22; with external_throttle "
                                   "it taught the policy to follow TECS's pitch, docs/training.md); evaluations keep Eq. 22")
+    delay_ms: list[float] = field(default_factory=lambda: [80.0, 120.0], metadata={
+        "help": "range (low high, ms) the training episodes' control delay is drawn from, uniformly (SPEC: 80 120; "
+                "every evaluation, the run's own included, keeps its own)"})
     turbulence_sigma_mps: float = _f(0.5, "standard deviation (m/s) of the training episodes' turbulence on each axis "
                                           "(SPEC and every evaluation, the run's own included: 0.5)")
     external_throttle: float = _f(0.3, "share of training episodes whose throttle a speed hold flies instead of the "
@@ -171,6 +174,7 @@ class TrainConfig:
             config.env.penalty_tail = 0.0
             config.env.external_throttle = 0.0
             config.env.turbulence_sigma_mps = 0.5
+            config.env.delay_ms = [80.0, 120.0]
             config.caps.kappa_spatial = 2.0
             config.caps.kappa_temporal = 1.0
             config.caps.action_weights = [1.0, 1.0, 1.0, 1.0]

@@ -91,8 +91,11 @@ class Trainer:
         check_threads(torch.get_num_threads())
         torch.manual_seed(c.seed)
         self.device = torch.device(c.device)
-        core = (CoreConfig(turbulence_sigma_mps=c.env.turbulence_sigma_mps) if c.env.disturbances
-                else CoreConfig.ideal())
+        if len(c.env.delay_ms) != 2:
+            raise ValueError(f"env.delay_ms must be two numbers (low high), got {c.env.delay_ms}")
+        core = (CoreConfig(turbulence_sigma_mps=c.env.turbulence_sigma_mps,
+                           delay_s=(c.env.delay_ms[0] / 1000.0, c.env.delay_ms[1] / 1000.0))
+                if c.env.disturbances else CoreConfig.ideal())
         self.task_config = TaskConfig(core=core, error_integral_decay=c.env.error_integral_decay,
                                       integral_trim=c.env.integral_trim, observe_trims=c.env.observe_trims,
                                       trims_in_surfaces=c.env.trims_in_surfaces, rudder_trim_s=c.env.rudder_trim_s,
@@ -383,13 +386,14 @@ def evaluate_policy(policy, task_config: TaskConfig, episodes: int = 8, max_step
     fly ``episodes`` episodes side by side with the deterministic policy, each once.
 
     Returns the mean normalised return (episode reward / max_steps, SPEC Fig. 8; always with Eq. 22's
-    reward, the policy on the throttle and SPEC's turbulence, whatever reward weights, penalty tail, external
-    throttle and turbulence the run trains with), the mean episode length and the number of episodes that ended early (terminated,
+    reward, the policy on the throttle and SPEC's turbulence and delay, whatever reward weights, penalty tail,
+    external throttle, turbulence and delay the run trains with), the mean episode length and the number of episodes that ended early (terminated,
     not truncated).
     """
     plain = dataclasses.replace(task_config, sideslip_weight=1.0, roll_weight=1.0, penalty_tail=0.0,
                                 external_throttle=0.0, core=dataclasses.replace(
-                                    task_config.core, turbulence_sigma_mps=CoreConfig.turbulence_sigma_mps))
+                                    task_config.core, turbulence_sigma_mps=CoreConfig.turbulence_sigma_mps,
+                                    delay_s=CoreConfig.delay_s))
     env = make_env(episodes, plain, seed=seed, window=window)
     td = env.reset()
     active = torch.ones(episodes, dtype=torch.bool)
