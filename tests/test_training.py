@@ -201,6 +201,7 @@ def test_the_paper_preset_is_spec_section_3():
     assert paper.env.external_throttle == 0.0 and paper.env.penalty_tail == 0.0 and paper.env.trims_in_surfaces
     assert (paper.optim.lr, paper.optim.gamma, paper.optim.tau, paper.buffer.batch_size) == (3e-4, 0.99, 0.005, 256)
     assert (paper.caps.kappa_spatial, paper.caps.kappa_temporal, paper.network.lstm_hidden) == (2.0, 1.0, 64)
+    assert paper.env.delay_ms == [80.0, 120.0] and paper.env.turbulence_sigma_mps == 0.5
     with pytest.raises(ValueError, match="unknown preset"):
         TrainConfig.preset("fast")
 
