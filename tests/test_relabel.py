@@ -104,8 +104,8 @@ def test_a_reshaped_reward_trains_on_its_reward_and_evaluates_on_eq_22():
     weighted = evaluate_policy(policy, shaped, episodes=2, max_steps=20, seed=3)
     plain = evaluate_policy(policy, TaskConfig(), episodes=2, max_steps=20, seed=3)
     assert weighted["return_norm"] == plain["return_norm"]
-    # ... and in SPEC's turbulence and delay whatever the run trains in (which does change a flight).
-    assert evaluate_policy(policy, rougher, episodes=2, max_steps=20, seed=3)["return_norm"] == plain["return_norm"]
+    # The training settings' turbulence and delay do change a flight (the trainer's own evaluation
+    # flies SPEC's: tests/test_training.py).
     rough_env = make_env(num_envs=2, config=rougher, seed=5)
     calm_env = make_env(num_envs=2, config=TaskConfig(), seed=5)
     rough, calm = (e.rollout(20, policy, break_when_any_done=False)["next", "observation"] for e in (rough_env, calm_env))

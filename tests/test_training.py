@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 import torch
 
+from jsbsim_env.core import CoreConfig
 from jsbsim_env.task import TaskConfig
 from training.checkpoint import CheckpointError, atomic_save, checked_load, load_checkpoint
 from training.config import TrainConfig
@@ -190,6 +191,22 @@ def test_training_summary_finds_the_steps_to_90_percent_of_the_final_return(tmp_
         script.run_summary(tmp_path, final_evals=0)
     assert summary["wall_h"] == pytest.approx(6_000 / 3600) and summary["updates"] == 55_000
     assert summary["best_eval_return"] == 1.0 and summary["best_eval_frames"] == 50_000
+
+
+def test_a_run_trains_in_its_turbulence_and_delay_and_evaluates_in_specs(tmp_path):
+    c = tiny_config()
+    c.env.turbulence_sigma_mps, c.env.delay_ms = 1.0, [40.0, 100.0]
+    trainer = Trainer(c, tmp_path / "run")
+    assert trainer.task_config.core.turbulence_sigma_mps == 1.0 and trainer.task_config.core.delay_s == (0.04, 0.1)
+    assert trainer.eval_task_config.core == CoreConfig()
+    assert trainer.eval_task_config.integral_trim == trainer.task_config.integral_trim
+    c.env.delay_ms = [40.0]
+    with pytest.raises(ValueError, match="delay_ms must be two numbers"):
+        Trainer(c, tmp_path / "bad")
+    c.env.disturbances = False  # the ideal setting stays ideal, in training and in its evaluation
+    c.env.delay_ms = [40.0, 100.0]
+    ideal = Trainer(c, tmp_path / "ideal")
+    assert ideal.task_config.core == ideal.eval_task_config.core == CoreConfig.ideal()
 
 
 def test_the_paper_preset_is_spec_section_3():

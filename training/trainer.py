@@ -93,14 +93,17 @@ class Trainer:
         self.device = torch.device(c.device)
         if len(c.env.delay_ms) != 2:
             raise ValueError(f"env.delay_ms must be two numbers (low high), got {c.env.delay_ms}")
-        core = (CoreConfig(turbulence_sigma_mps=c.env.turbulence_sigma_mps,
-                           delay_s=(c.env.delay_ms[0] / 1000.0, c.env.delay_ms[1] / 1000.0))
-                if c.env.disturbances else CoreConfig.ideal())
+        # The run's own evaluation flies SPEC's disturbances (``eval_core``) whatever it trains in.
+        eval_core = CoreConfig() if c.env.disturbances else CoreConfig.ideal()
+        core = (dataclasses.replace(eval_core, turbulence_sigma_mps=c.env.turbulence_sigma_mps,
+                                    delay_s=(c.env.delay_ms[0] / 1000.0, c.env.delay_ms[1] / 1000.0))
+                if c.env.disturbances else eval_core)
         self.task_config = TaskConfig(core=core, error_integral_decay=c.env.error_integral_decay,
                                       integral_trim=c.env.integral_trim, observe_trims=c.env.observe_trims,
                                       trims_in_surfaces=c.env.trims_in_surfaces, rudder_trim_s=c.env.rudder_trim_s,
                                       sideslip_weight=c.env.sideslip_weight, roll_weight=c.env.roll_weight,
                                       penalty_tail=c.env.penalty_tail, external_throttle=c.env.external_throttle)
+        self.eval_task_config = dataclasses.replace(self.task_config, core=eval_core)
         self.env = make_env(c.env.num_envs, self.task_config, seed=c.seed, window=c.env.window,
                             critic_state=c.network.critic == "state")
         obs_size = self.task_config.observation_size
@@ -305,7 +308,7 @@ class Trainer:
     def evaluate(self) -> dict:
         """Deterministic evaluation on the fixed seeded episode set; keeps the best policy."""
         c = self.config
-        result = evaluate_policy(self.actor, self.task_config, episodes=c.log.eval_episodes,
+        result = evaluate_policy(self.actor, self.eval_task_config, episodes=c.log.eval_episodes,
                                  max_steps=c.log.eval_max_steps, window=c.env.window)
         if result["return_norm"] > self.counters.best_eval:
             self.counters.best_eval = result["return_norm"]
@@ -386,14 +389,12 @@ def evaluate_policy(policy, task_config: TaskConfig, episodes: int = 8, max_step
     fly ``episodes`` episodes side by side with the deterministic policy, each once.
 
     Returns the mean normalised return (episode reward / max_steps, SPEC Fig. 8; always with Eq. 22's
-    reward, the policy on the throttle and SPEC's turbulence and delay, whatever reward weights, penalty tail,
-    external throttle, turbulence and delay the run trains with), the mean episode length and the number of episodes that ended early (terminated,
-    not truncated).
+    reward and the policy on the throttle, whatever reward weights, penalty tail and external throttle the run
+    trains with; ``Trainer`` passes SPEC's disturbances, whatever turbulence and delay it trains in), the mean
+    episode length and the number of episodes that ended early (terminated, not truncated).
     """
     plain = dataclasses.replace(task_config, sideslip_weight=1.0, roll_weight=1.0, penalty_tail=0.0,
-                                external_throttle=0.0, core=dataclasses.replace(
-                                    task_config.core, turbulence_sigma_mps=CoreConfig.turbulence_sigma_mps,
-                                    delay_s=CoreConfig.delay_s))
+                                external_throttle=0.0)
     env = make_env(episodes, plain, seed=seed, window=window)
     td = env.reset()
     active = torch.ones(episodes, dtype=torch.bool)
