@@ -239,6 +239,26 @@ def test_named_parameter_sets():
         core.reset(seed=0, parameters="heavy")
 
 
+def test_turbulence_and_delay_settings_are_checked_and_change_a_flight():
+    for bad in (-0.1, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="turbulence_sigma_mps"):
+            CoreConfig(turbulence_sigma_mps=bad)
+    for bad in ((0.1, 0.05), (-0.01, 0.1), (0.08, float("nan"))):
+        with pytest.raises(ValueError, match="delay_s"):
+            CoreConfig(delay_s=bad)
+    with pytest.raises(ValueError, match="control_interval_s"):
+        CoreConfig(control_interval_s=(0.0, 0.05))
+    # The training settings' turbulence and delay do change a flight (the trainer's own evaluation
+    # flies SPEC's: tests/test_training.py).
+    def policy(td):  # neutral surfaces and half throttle in both flights
+        return td.set("action", torch.zeros(td.shape[0], 4))
+
+    rougher = TaskConfig(core=CoreConfig(turbulence_sigma_mps=1.5, delay_s=(0.0, 0.02)))
+    rough, calm = (make_env(num_envs=2, config=config, seed=5).rollout(20, policy, break_when_any_done=False)
+                   ["next", "observation"] for config in (rougher, TaskConfig()))
+    assert not torch.equal(rough, calm)
+
+
 def test_backlash_width_and_servo_rate_limit_reach_jsbsim():
     core = FlightCore(CoreConfig.ideal(backlash_deg=0.3, servo_rate_limit_degps=40.0))
     core.reset(seed=0)
