@@ -92,6 +92,9 @@ class OptimSettings:
                                    "(Luo et al. 2024) trains the recurrent encoder slower than the layers after it")
     updates_per_step: float = _f(0.25, "gradient steps per environment step (SPEC: 1; 0.25 learns faster "
                                        "per hour and per gradient step, README)")
+    lr_end_fraction: float = _f(1.0, "learning rates of actor and critics fall linearly from their values at the "
+                                     "first update to this fraction of them at collector.total_frames (1: "
+                                     "constant, SPEC); the temperature's stays as it is")
 
 
 @dataclass
@@ -163,6 +166,7 @@ class TrainConfig:
             config.optim.auto_alpha = False
             config.optim.alpha = 0.2
             config.optim.updates_per_step = 1.0
+            config.optim.lr_end_fraction = 1.0
             config.buffer.relabel_fraction = 0.0
             config.env.error_integral_decay = 0.0
             config.env.integral_trim = 0.0

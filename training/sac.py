@@ -111,6 +111,7 @@ class RecurrentSAC(nn.Module):
         if recurrent_lr is not None and not (math.isfinite(recurrent_lr) and recurrent_lr > 0.0):
             raise ValueError(f"recurrent_lr must be a positive learning rate, got {recurrent_lr}")
         params = _parameter_groups(actor_net, recurrent_lr) + _parameter_groups(self.critics, recurrent_lr)
+        self._network_groups = len(params)  # the temperature's group, when tuned, comes after these
         if auto_alpha:
             params.append({"params": [self.log_alpha]})
         # Adam's fused kernel steps every parameter in one call (CPU and CUDA in current torch).
@@ -118,8 +119,19 @@ class RecurrentSAC(nn.Module):
             self.optimizer = torch.optim.Adam(params, lr=lr, fused=True)
         except (RuntimeError, TypeError):
             self.optimizer = torch.optim.Adam(params, lr=lr, foreach=True)
+        # Each group's starting rate, kept apart from the optimiser: a loaded optimiser state
+        # replaces its groups' settings, and the schedule must scale the configured rates.
+        self._base_lrs = [group["lr"] for group in self.optimizer.param_groups]
         self._online = list(self.critics.parameters())
         self._target = list(self.target_critics.parameters())
+
+    def scale_learning_rates(self, factor: float) -> None:
+        """Set the actor's and critics' learning rates to ``factor`` times their configured values
+        (the temperature's is left alone, so that the entropy target is tracked as before)."""
+        if not (math.isfinite(factor) and factor > 0.0):
+            raise ValueError(f"learning-rate factor must be positive and finite, got {factor}")
+        for group, base in zip(self.optimizer.param_groups[:self._network_groups], self._base_lrs):
+            group["lr"] = base * factor
 
     def losses(self, batch: TensorDictBase) -> dict[str, torch.Tensor]:
         """Every loss term of one update, and what is logged (``loss_*``, ``caps_*``, ``alpha``, ``entropy``)."""

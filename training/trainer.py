@@ -50,6 +50,17 @@ CSV_FIELDS = ("frames", "updates", "wall_s", "env_steps_per_s", "episodes", "epi
               "eval_return_norm", "eval_length", "eval_early_ends")
 
 
+def lr_factor(frames: int, first_update_frames: int, total_frames: int, end_fraction: float) -> float:
+    """Learning-rate factor at ``frames``: 1 until the first update, then falling linearly to
+    ``end_fraction`` at ``total_frames`` (held there beyond). A function of the frame count only,
+    so that a resumed run follows the schedule it started with (one resumed with a longer
+    ``total_frames`` stretches it from where it stands)."""
+    if end_fraction == 1.0 or frames <= first_update_frames:
+        return 1.0
+    progress = min(1.0, (frames - first_update_frames) / max(1, total_frames - first_update_frames))
+    return 1.0 + (end_fraction - 1.0) * progress
+
+
 def resume_fingerprint(config: TrainConfig) -> str:
     """Settings that must be the same to resume: everything but logging, device, threads and length."""
     data = config.to_dict()
@@ -81,6 +92,8 @@ class Trainer:
             raise ValueError(f"collector.total_frames ({c.collector.total_frames}) must exceed "
                              f"collector.init_random_frames ({c.collector.init_random_frames}): the run would "
                              "only take random steps and learn nothing")
+        if not (math.isfinite(c.optim.lr_end_fraction) and 0.0 < c.optim.lr_end_fraction <= 1.0):
+            raise ValueError(f"optim.lr_end_fraction must be in (0, 1], got {c.optim.lr_end_fraction}")
         self.run_dir = Path(run_dir)
         if resume and not self.run_dir.is_dir():
             raise CheckpointError(f"no run folder to resume at {self.run_dir}")
@@ -211,6 +224,8 @@ class Trainer:
                               error_integrals=c.env.error_integral_decay > 0.0,
                               sideslip_weight=c.env.sideslip_weight, penalty_tail=c.env.penalty_tail,
                               roll_weight=c.env.roll_weight)
+        self.sac.scale_learning_rates(lr_factor(self.counters.frames, c.collector.init_random_frames,
+                                                c.collector.total_frames, c.optim.lr_end_fraction))
         for key, value in self.sac.update(batch).items():
             self._losses.setdefault(key, []).append(value)
         self.counters.updates += 1
