@@ -170,6 +170,14 @@ def test_recurrent_lr_steps_the_lstm_layers_at_their_own_rate():
     with pytest.raises(ValueError, match="recurrent_lr"):
         RecurrentSAC(make_actor(16, 32).module[0].module, [CriticNet(16, 32), CriticNet(16, 32)], auto_alpha=True,
                      recurrent_lr=-1.0, **SETTINGS)
+    # The learning-rate schedule scales each network group's own rate and leaves the temperature's.
+    sac.scale_learning_rates(0.5)
+    assert [g["lr"] for g in groups] == [1.5e-4, 5e-7, 1.5e-4, 5e-7, 3e-4]
+    sac.optimizer.load_state_dict(sac.optimizer.state_dict())  # a resumed optimiser's saved rates
+    sac.scale_learning_rates(0.25)
+    assert [g["lr"] for g in sac.optimizer.param_groups] == [pytest.approx(x) for x in (7.5e-5, 2.5e-7, 7.5e-5, 2.5e-7, 3e-4)]
+    with pytest.raises(ValueError, match="factor"):
+        sac.scale_learning_rates(float("nan"))
 
 
 def test_goal_aware_caps_leaves_goal_steps_and_goal_noise_out():

@@ -15,7 +15,7 @@ from jsbsim_env.core import CoreConfig
 from jsbsim_env.task import TaskConfig
 from training.checkpoint import CheckpointError, atomic_save, checked_load, load_checkpoint
 from training.config import TrainConfig
-from training.trainer import RunLockedError, Trainer
+from training.trainer import RunLockedError, Trainer, lr_factor
 
 SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
 
@@ -219,6 +219,7 @@ def test_the_paper_preset_is_spec_section_3():
     assert (paper.optim.lr, paper.optim.gamma, paper.optim.tau, paper.buffer.batch_size) == (3e-4, 0.99, 0.005, 256)
     assert (paper.caps.kappa_spatial, paper.caps.kappa_temporal, paper.network.lstm_hidden) == (2.0, 1.0, 64)
     assert paper.env.delay_ms == [80.0, 120.0] and paper.env.turbulence_sigma_mps == 0.5
+    assert paper.optim.lr_end_fraction == 1.0
     with pytest.raises(ValueError, match="unknown preset"):
         TrainConfig.preset("fast")
 
@@ -236,3 +237,27 @@ def test_a_run_with_state_critics_and_error_integrals_trains_and_resumes(tmp_pat
     assert stored["observation"].shape[-1] == TaskConfig(error_integral_decay=0.99).observation_size
     c.collector.total_frames = 192
     assert int(Trainer(c, run, resume=True).train()["frames"]) == 192
+
+
+def test_the_learning_rate_schedule_falls_linearly_and_resumes_where_it_stood(tmp_path):
+    """lr_end_fraction: constant until the first update, linear to the fraction at total_frames,
+    and a function of the frame count, so a resumed run's rates are the uninterrupted run's."""
+    assert lr_factor(64, 64, 192, 0.1) == 1.0 and lr_factor(10_000, 64, 192, 1.0) == 1.0
+    assert lr_factor(128, 64, 192, 0.1) == pytest.approx(0.55)
+    assert lr_factor(192, 64, 192, 0.1) == pytest.approx(0.1) == lr_factor(400, 64, 192, 0.1)
+    c = tiny_config(128)
+    c.optim.lr_end_fraction = 0.2
+    run = tmp_path / "run"
+    Trainer(c, run).train()
+    c.collector.total_frames = 192
+    resumed = Trainer(c, run, resume=True)
+    # The loaded optimiser state carries the rates of frame 128 (on the 192-frame schedule:
+    # the checkpointed run was shorter); the schedule still scales the configured rates.
+    resumed.train()
+    network_lrs = [g["lr"] for g in resumed.sac.optimizer.param_groups[:-1]]
+    assert network_lrs == [pytest.approx(c.optim.lr * 0.2)] * len(network_lrs)
+    assert resumed.sac.optimizer.param_groups[-1]["lr"] == c.optim.lr  # the temperature's
+    for bad in (0.0, -0.5, 1.5, float("nan")):
+        c.optim.lr_end_fraction = bad
+        with pytest.raises(ValueError, match="lr_end_fraction"):
+            Trainer(c, tmp_path / "bad")
