@@ -152,14 +152,14 @@ def _penalty(x: float, cap: float, tail: float) -> float:
 
 
 def reward_terms(state, goal, sideslip_weight: float = 1.0, penalty_tail: float = 0.0,
-                 roll_weight: float = 1.0) -> list[float]:
+                 roll_weight: float = 1.0, pitch_weight: float = 1.0) -> list[float]:
     """SPEC Eq. 22 for one true state (``core.STATE_NAMES`` order) and goal: the four penalties
     (``REWARD_TERMS``, errors in degrees and m/s) and then the reward, 1 minus their sum;
-    ``sideslip_weight`` and ``roll_weight`` scale the sideslip and roll penalties and their caps,
+    ``sideslip_weight``, ``roll_weight`` and ``pitch_weight`` scale those penalties and their caps,
     ``penalty_tail`` keeps that share of each penalty's slope beyond its cap (``TaskConfig``; 1, 0
     and 1 give Eq. 22)."""
     p_roll = roll_weight * _penalty(abs(state[1] - goal[0]) * _DEG / 5.0, 0.3, penalty_tail)
-    p_pitch = _penalty(abs(state[2] - goal[1]) * _DEG / 6.0, 0.3, penalty_tail)
+    p_pitch = pitch_weight * _penalty(abs(state[2] - goal[1]) * _DEG / 6.0, 0.3, penalty_tail)
     p_speed = _penalty(abs(state[6] - goal[2]) / 5.0, 0.3, penalty_tail)
     p_beta = sideslip_weight * _penalty(abs(state[8]) * _DEG / 30.0, 0.1, penalty_tail)
     return [p_roll, p_pitch, p_speed, p_beta, 1.0 - (p_roll + p_pitch + p_speed + p_beta)]
@@ -172,11 +172,11 @@ def _penalties(x, cap: float, tail: float):
 
 
 def reward_from_achieved(achieved, goal, sideslip_weight: float = 1.0, penalty_tail: float = 0.0,
-                         roll_weight: float = 1.0):
+                         roll_weight: float = 1.0, pitch_weight: float = 1.0):
     """SPEC Eq. 22 on arrays (numpy or torch): ``achieved`` (..., 4) in ``ACHIEVED_INDEX`` order and
     ``goal`` (..., 3) -> reward (...). The vectorised twin of ``reward_terms``."""
     p_roll = roll_weight * _penalties(abs(achieved[..., 0] - goal[..., 0]) * (_DEG / 5.0), 0.3, penalty_tail)
-    p_pitch = _penalties(abs(achieved[..., 1] - goal[..., 1]) * (_DEG / 6.0), 0.3, penalty_tail)
+    p_pitch = pitch_weight * _penalties(abs(achieved[..., 1] - goal[..., 1]) * (_DEG / 6.0), 0.3, penalty_tail)
     p_speed = _penalties(abs(achieved[..., 2] - goal[..., 2]) / 5.0, 0.3, penalty_tail)
     p_beta = sideslip_weight * _penalties(abs(achieved[..., 3]) * (_DEG / 30.0), 0.1, penalty_tail)
     return 1.0 - (p_roll + p_pitch + p_speed + p_beta)
@@ -201,7 +201,8 @@ class TaskConfig:
     ``rudder_trim_s`` T > 0 adds a rudder trim on sideslip beside them, at ``integral_trim`` times
     the PID's sideslip gain over T (``TrimIntegrator``); with hidden trims only.
     ``sideslip_weight`` multiplies Eq. 22's sideslip penalty and its cap (1: the paper's reward),
-    ``roll_weight`` its roll penalty and cap (1: the paper's reward).
+    ``roll_weight`` its roll penalty and cap, ``pitch_weight`` its pitch penalty and cap (1: the
+    paper's reward).
     ``penalty_tail`` keeps that share of each penalty's slope beyond its cap (0: the paper's reward).
     Eq. 22 pays nothing for a pitch error of 12 deg that it does not pay for 2 deg, so a policy
     gains nothing by moving towards a goal it cannot reach within the cap.
@@ -221,6 +222,7 @@ class TaskConfig:
     rudder_trim_s: float = 0.0  # time constant of a rudder trim on sideslip; 0: none
     sideslip_weight: float = 1.0
     roll_weight: float = 1.0
+    pitch_weight: float = 1.0
     penalty_tail: float = 0.0
     external_throttle: float = 0.0  # share of episodes; 0: the policy always flies the throttle, as the paper
 
@@ -228,7 +230,7 @@ class TaskConfig:
         if not 0.0 <= self.error_integral_decay < 1.0:
             raise ValueError(f"error_integral_decay must lie in [0, 1), got {self.error_integral_decay}")
         check_trim_settings(self.integral_trim, self.observe_trims, self.rudder_trim_s)
-        for name in ("sideslip_weight", "roll_weight"):
+        for name in ("sideslip_weight", "roll_weight", "pitch_weight"):
             if not 0.0 <= getattr(self, name) <= 10.0:
                 raise ValueError(f"{name} must lie in [0, 10], got {getattr(self, name)}")
         if not 0.0 <= self.penalty_tail <= 1.0:
@@ -341,6 +343,7 @@ class AttitudeTaskBatch:
         self._trim_free_surfaces = self._trims is not None and not self.config.trims_in_surfaces
         self._speed_holds = [PIDAttitudeController(schedule) for _ in range(n)] if self._external_share > 0.0 else None
         self._sideslip_weight, self._roll_weight = self.config.sideslip_weight, self.config.roll_weight
+        self._pitch_weight = self.config.pitch_weight
         self._penalty_tail = self.config.penalty_tail
         self.external_throttle = [False] * n  # whether the speed hold flies each aircraft's throttle
         self._obs_lists: list[list[float]] = [[0.0] * self.config.observation_size for _ in range(n)]
@@ -412,7 +415,8 @@ class AttitudeTaskBatch:
             goal = self._goal_lists[i]
             if external:  # speed-free: no airspeed term
                 goal = [goal[0], goal[1], state[EAS_INDEX]]
-            t = reward_terms(state, goal, self._sideslip_weight, self._penalty_tail, self._roll_weight)
+            t = reward_terms(state, goal, self._sideslip_weight, self._penalty_tail, self._roll_weight,
+                             self._pitch_weight)
             if code and not math.isfinite(t[4]):
                 t = [0.0] * 5
             terms.append(t)

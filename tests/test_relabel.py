@@ -55,6 +55,10 @@ def test_vectorised_reward_matches_the_per_aircraft_one():
         rolled = reward_terms(state, goal, roll_weight=2.0)
         assert rolled[1:4] == terms[1:4] and rolled[0] == pytest.approx(2.0 * terms[0])
         assert reward_from_achieved(achieved, goal, roll_weight=2.0) == pytest.approx(rolled[4], abs=1e-12)
+        # And a pitch weight the pitch penalty.
+        pitched = reward_terms(state, goal, pitch_weight=2.0)
+        assert pitched[0] == terms[0] and pitched[2:4] == terms[2:4] and pitched[1] == pytest.approx(2.0 * terms[1])
+        assert reward_from_achieved(achieved, goal, pitch_weight=2.0) == pytest.approx(pitched[4], abs=1e-12)
         # A penalty tail changes nothing within the caps and agrees between the two as well.
         tailed = reward_terms(state, goal, 3.0, 0.2)
         assert reward_from_achieved(achieved, goal, 3.0, 0.2) == pytest.approx(tailed[4], abs=1e-12)
@@ -83,18 +87,18 @@ def test_a_penalty_tail_charges_errors_beyond_the_cap():
 def test_a_reshaped_reward_trains_on_its_reward_and_evaluates_on_eq_22():
     from training.trainer import evaluate_policy
 
-    shaped = TaskConfig(sideslip_weight=3.0, penalty_tail=0.2, roll_weight=2.0)
+    shaped = TaskConfig(sideslip_weight=3.0, penalty_tail=0.2, roll_weight=2.0, pitch_weight=1.5)
     env = make_env(num_envs=2, config=shaped, seed=5)
     torch.manual_seed(0)
     data = env.rollout(30, break_when_any_done=False).reshape(-1)
     achieved, goal = data["next", "achieved"].double().numpy(), _goals(data["observation"])
     np.testing.assert_allclose(data["next", "reward"].reshape(-1).double().numpy(),
-                               reward_from_achieved(achieved, goal, 3.0, 0.2, 2.0), atol=1e-5)
+                               reward_from_achieved(achieved, goal, 3.0, 0.2, 2.0, 1.5), atol=1e-5)
     relabelled = relabel_goals(data, 1.0, 2.0, torch.Generator().manual_seed(0), sideslip_weight=3.0,
-                               penalty_tail=0.2, roll_weight=2.0)
+                               penalty_tail=0.2, roll_weight=2.0, pitch_weight=1.5)
     new_goal = _goals(relabelled["observation"])
     np.testing.assert_allclose(relabelled["next", "reward"].reshape(-1).double().numpy(),
-                               reward_from_achieved(achieved, new_goal, 3.0, 0.2, 2.0), atol=1e-5)
+                               reward_from_achieved(achieved, new_goal, 3.0, 0.2, 2.0, 1.5), atol=1e-5)
     # The training-time evaluation scores with Eq. 22 whatever the run trains on.
     def policy(td):  # neutral surfaces and half throttle, the same in both evaluations
         return td.set("action", torch.zeros(td.shape[0], 4))

@@ -11,7 +11,8 @@ from jsbsim_env.task import AttitudeTaskBatch, TaskConfig
 
 @pytest.mark.parametrize(("field", "value"), [("integral_trim", -0.1), ("integral_trim", 2.5), ("external_throttle", 1.5),
                                               ("sideslip_weight", -1.0), ("sideslip_weight", 11.0),
-                                              ("roll_weight", -0.5), ("roll_weight", float("nan"))])
+                                              ("roll_weight", -0.5), ("roll_weight", float("nan")),
+                                              ("pitch_weight", 10.5), ("pitch_weight", float("nan"))])
 def test_training_options_out_of_range_are_refused(field, value):
     with pytest.raises(ValueError, match=f"{field} must lie in"):
         TaskConfig(**{field: value})

@@ -214,7 +214,7 @@ def test_the_paper_preset_is_spec_section_3():
     assert not paper.optim.auto_alpha and paper.optim.alpha == 0.2 and paper.optim.updates_per_step == 1.0
     assert paper.buffer.relabel_fraction == 0.0 and paper.env.error_integral_decay == 0.0
     assert paper.env.integral_trim == 0.0 and paper.env.sideslip_weight == 1.0 and paper.env.rudder_trim_s == 0.0
-    assert paper.env.roll_weight == 1.0 and paper.caps.action_weights == [1.0] * 4
+    assert paper.env.roll_weight == 1.0 and paper.env.pitch_weight == 1.0 and paper.caps.action_weights == [1.0] * 4
     assert paper.env.external_throttle == 0.0 and paper.env.penalty_tail == 0.0 and paper.env.trims_in_surfaces
     assert (paper.optim.lr, paper.optim.gamma, paper.optim.tau, paper.buffer.batch_size) == (3e-4, 0.99, 0.005, 256)
     assert (paper.caps.kappa_spatial, paper.caps.kappa_temporal, paper.network.lstm_hidden) == (2.0, 1.0, 64)

@@ -46,6 +46,8 @@ class EnvSettings:
                                      "3 halved the sideslip, docs/training.md); evaluations keep Eq. 22")
     roll_weight: float = _f(1.0, "training reward's roll penalty and its cap times this (1: SPEC Eq. 22); "
                                  "evaluations keep Eq. 22")
+    pitch_weight: float = _f(1.0, "training reward's pitch penalty and its cap times this (1: SPEC Eq. 22); "
+                                  "evaluations keep Eq. 22")
     penalty_tail: float = _f(0.1, "training reward: share of each Eq. 22 penalty's slope kept beyond its cap, so that a "
                                   "large error still costs more than a small one (0: SPEC Eq. 22; with external_throttle "
                                   "it taught the policy to follow TECS's pitch, docs/training.md); evaluations keep Eq. 22")
@@ -175,6 +177,7 @@ class TrainConfig:
             config.env.goal_trim_s = 0.0
             config.env.sideslip_weight = 1.0
             config.env.roll_weight = 1.0
+            config.env.pitch_weight = 1.0
             config.env.penalty_tail = 0.0
             config.env.external_throttle = 0.0
             config.env.turbulence_sigma_mps = 0.5

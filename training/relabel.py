@@ -52,7 +52,7 @@ _GOAL_KEYS = ("observation", ("next", "observation"), "state", ("next", "state")
 
 def relabel_goals(batch: TensorDictBase, fraction: float, spread: float, generator: torch.Generator | None = None,
                   error_integrals: bool = False, sideslip_weight: float = 1.0,
-                  penalty_tail: float = 0.0, roll_weight: float = 1.0) -> TensorDictBase:
+                  penalty_tail: float = 0.0, roll_weight: float = 1.0, pitch_weight: float = 1.0) -> TensorDictBase:
     """A copy of ``batch`` with goals and rewards of a random ``fraction`` of its samples relabelled.
 
     Args:
@@ -65,7 +65,7 @@ def relabel_goals(batch: TensorDictBase, fraction: float, spread: float, generat
             each channel's saturation error, clipped to the goal ranges.
         generator: random stream for the choice and the offsets.
         error_integrals: the observations (and states) carry error integrals to move as well.
-        sideslip_weight, penalty_tail, roll_weight: the training reward's (``task.TaskConfig``).
+        sideslip_weight, penalty_tail, roll_weight, pitch_weight: the training reward's (``task.TaskConfig``).
     """
     if not 0.0 <= fraction <= 1.0:
         raise ValueError(f"relabel fraction must lie in [0, 1], got {fraction}")
@@ -97,6 +97,6 @@ def relabel_goals(batch: TensorDictBase, fraction: float, spread: float, generat
             shift = (rows[..., _GOAL_COLUMNS] - new_goal) * rows[..., _WEIGHT_COLUMN, None]
             values[index, ..., _INTEGRAL_COLUMNS] = rows[..., _INTEGRAL_COLUMNS] + INTEGRAL_GAIN * shift
         values[index, ..., _GOAL_COLUMNS] = new_goal
-    reward = reward_from_achieved(achieved, goal, sideslip_weight, penalty_tail, roll_weight)
+    reward = reward_from_achieved(achieved, goal, sideslip_weight, penalty_tail, roll_weight, pitch_weight)
     out["next", "reward"][index] = reward.unsqueeze(-1).to(out["next", "reward"].dtype)
     return out

@@ -115,6 +115,7 @@ class Trainer:
                                       integral_trim=c.env.integral_trim, observe_trims=c.env.observe_trims,
                                       trims_in_surfaces=c.env.trims_in_surfaces, rudder_trim_s=c.env.rudder_trim_s,
                                       sideslip_weight=c.env.sideslip_weight, roll_weight=c.env.roll_weight,
+                                      pitch_weight=c.env.pitch_weight,
                                       penalty_tail=c.env.penalty_tail, external_throttle=c.env.external_throttle)
         self.eval_task_config = dataclasses.replace(self.task_config, core=eval_core)
         self.env = make_env(c.env.num_envs, self.task_config, seed=c.seed, window=c.env.window,
@@ -223,7 +224,7 @@ class Trainer:
         batch = relabel_goals(batch.to(self.device), c.buffer.relabel_fraction, c.buffer.relabel_spread,
                               error_integrals=c.env.error_integral_decay > 0.0,
                               sideslip_weight=c.env.sideslip_weight, penalty_tail=c.env.penalty_tail,
-                              roll_weight=c.env.roll_weight)
+                              roll_weight=c.env.roll_weight, pitch_weight=c.env.pitch_weight)
         self.sac.scale_learning_rates(lr_factor(self.counters.frames, c.collector.init_random_frames,
                                                 c.collector.total_frames, c.optim.lr_end_fraction))
         for key, value in self.sac.update(batch).items():
@@ -408,7 +409,7 @@ def evaluate_policy(policy, task_config: TaskConfig, episodes: int = 8, max_step
     trains with; ``Trainer`` passes SPEC's disturbances, whatever turbulence and delay it trains in), the mean
     episode length and the number of episodes that ended early (terminated, not truncated).
     """
-    plain = dataclasses.replace(task_config, sideslip_weight=1.0, roll_weight=1.0, penalty_tail=0.0,
+    plain = dataclasses.replace(task_config, sideslip_weight=1.0, roll_weight=1.0, pitch_weight=1.0, penalty_tail=0.0,
                                 external_throttle=0.0)
     env = make_env(episodes, plain, seed=seed, window=window)
     td = env.reset()
