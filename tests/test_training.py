@@ -251,8 +251,8 @@ def test_the_learning_rate_schedule_falls_linearly_and_resumes_where_it_stood(tm
     Trainer(c, run).train()
     c.collector.total_frames = 192
     resumed = Trainer(c, run, resume=True)
-    # The loaded optimiser state carries the rates of frame 128 (on the 192-frame schedule:
-    # the checkpointed run was shorter); the schedule still scales the configured rates.
+    # The first run ended its own schedule at 0.2 of the rates; resumed to 192 frames the schedule
+    # stretches and ends at 0.2 again, of the configured rates (of the loaded ones it would be 0.04).
     resumed.train()
     network_lrs = [g["lr"] for g in resumed.sac.optimizer.param_groups[:-1]]
     assert network_lrs == [pytest.approx(c.optim.lr * 0.2)] * len(network_lrs)
