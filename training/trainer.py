@@ -55,7 +55,7 @@ def lr_factor(frames: int, first_update_frames: int, total_frames: int, end_frac
     ``end_fraction`` at ``total_frames`` (held there beyond). A function of the frame count only,
     so that a resumed run follows the schedule it started with (one resumed with a longer
     ``total_frames`` stretches it from where it stands)."""
-    if end_fraction == 1.0 or frames <= first_update_frames:
+    if frames <= first_update_frames:
         return 1.0
     progress = min(1.0, (frames - first_update_frames) / max(1, total_frames - first_update_frames))
     return 1.0 + (end_fraction - 1.0) * progress
@@ -225,8 +225,9 @@ class Trainer:
                               error_integrals=c.env.error_integral_decay > 0.0,
                               sideslip_weight=c.env.sideslip_weight, penalty_tail=c.env.penalty_tail,
                               roll_weight=c.env.roll_weight, pitch_weight=c.env.pitch_weight)
-        self.sac.scale_learning_rates(lr_factor(self.counters.frames, c.collector.init_random_frames,
-                                                c.collector.total_frames, c.optim.lr_end_fraction))
+        if c.optim.lr_end_fraction != 1.0:  # a constant rate (the default) needs no setting per update
+            self.sac.scale_learning_rates(lr_factor(self.counters.frames, c.collector.init_random_frames,
+                                                    c.collector.total_frames, c.optim.lr_end_fraction))
         for key, value in self.sac.update(batch).items():
             self._losses.setdefault(key, []).append(value)
         self.counters.updates += 1
