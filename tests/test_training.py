@@ -122,6 +122,27 @@ def test_config_round_trip_and_command_line():
         parser.parse_args(["--caps.action_weights", "0.5", "1"])
 
 
+def test_config_of_an_older_run_keeps_the_settings_it_trained_with():
+    from training.config import LEGACY_VALUES
+
+    # Every legacy entry names a setting that exists, with a value of the setting's type.
+    for key, value in LEGACY_VALUES.items():
+        group, name = key.split(".")
+        assert isinstance(value, type(getattr(getattr(TrainConfig(), group), name))), key
+    # A run saved before delay_ms, pitch_weight and the CAPS action weights existed resumes with
+    # the values it trained with, not the present defaults; what it saved stays its own.
+    data = TrainConfig().to_dict()
+    for name in ("delay_ms", "pitch_weight", "roll_weight"):
+        del data["env"][name]
+    del data["caps"]["action_weights"]
+    data["env"]["sideslip_weight"] = 6.0
+    c = TrainConfig.from_dict(data)
+    assert c.env.delay_ms == [80.0, 120.0] and c.env.pitch_weight == 1.0 and c.env.roll_weight == 1.0
+    assert c.caps.action_weights == [1.0, 1.0, 1.0, 1.0] and c.env.sideslip_weight == 6.0
+    c.caps.action_weights[0] = 0.5  # a config's list is its own, not the table's
+    assert LEGACY_VALUES["caps.action_weights"] == [1.0, 1.0, 1.0, 1.0]
+
+
 def test_train_script_help_lists_the_settings():
     done = subprocess.run([sys.executable, str(SCRIPTS / "train_torchrl.py"), "--help"], capture_output=True,
                           text=True, check=False, timeout=120)

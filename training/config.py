@@ -8,6 +8,7 @@ and the full configuration is written as JSON with each run.
 from __future__ import annotations
 
 import argparse
+import copy
 import dataclasses
 import json
 from dataclasses import dataclass, field, fields
@@ -142,6 +143,36 @@ class LogSettings:
     progress: bool = _f(True, "show a progress bar")
 
 
+# The behaviour of the code before each of these settings existed: what a saved run without the
+# setting trained with. The settings added since the first configuration are all here except
+# caps.batch_size (before it, CAPS used the whole batch) and optim.target_entropy (before it,
+# TorchRL's automatic target, minus the batched action size); a run that old cannot be resumed
+# as it began.
+LEGACY_VALUES: dict[str, Any] = {
+    "env.error_integral_decay": 0.0,
+    "env.integral_trim": 0.0,
+    "env.observe_trims": True,
+    "env.trims_in_surfaces": True,
+    "env.rudder_trim_s": 0.0,
+    "env.goal_trim_s": 0.0,
+    "env.sideslip_weight": 1.0,
+    "env.roll_weight": 1.0,
+    "env.pitch_weight": 1.0,
+    "env.penalty_tail": 0.0,
+    "env.delay_ms": [80.0, 120.0],
+    "env.turbulence_sigma_mps": 0.5,
+    "env.external_throttle": 0.0,
+    "buffer.relabel_fraction": 0.0,
+    "optim.auto_alpha": False,
+    "optim.recurrent_lr": 0.0,
+    "optim.lr_end_fraction": 1.0,
+    "network.initial_std": 1.0,
+    "network.critic": "recurrent",
+    "caps.action_weights": [1.0, 1.0, 1.0, 1.0],
+    "caps.goal_aware": False,
+}
+
+
 @dataclass
 class TrainConfig:
     seed: int = _f(0, "seed of everything: networks, exploration, environments")
@@ -198,7 +229,11 @@ class TrainConfig:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> TrainConfig:
-        """Rebuild a configuration; unknown keys are an error (a config from another version)."""
+        """Rebuild a configuration; unknown keys are an error (a config from another version).
+
+        A setting missing from ``data`` (a run saved before the setting existed) takes the value
+        that reproduces how that run trained (``LEGACY_VALUES``), not the present default, so that
+        a resumed old run goes on as it began."""
         kwargs = {}
         hints = get_type_hints(cls)
         for f in fields(cls):
@@ -210,7 +245,10 @@ class TrainConfig:
                 unknown = set(value) - {g.name for g in fields(sub)}
                 if unknown:
                     raise ValueError(f"unknown settings in {f.name}: {sorted(unknown)}")
-                value = sub(**value)
+                missing = {g.name for g in fields(sub)} - set(value)
+                legacy = {name: LEGACY_VALUES[f"{f.name}.{name}"] for name in missing
+                          if f"{f.name}.{name}" in LEGACY_VALUES}
+                value = sub(**value, **copy.deepcopy(legacy))
             kwargs[f.name] = value
         unknown = set(data) - {f.name for f in fields(cls)}
         if unknown:
