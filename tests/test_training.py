@@ -117,7 +117,7 @@ def test_config_round_trip_and_command_line():
     c = TrainConfig.from_namespace(ns)
     assert c.caps.action_weights == [1.0, 1.0, 0.5, 1.0] and c.optim.recurrent_lr == 3e-5
     assert TrainConfig.from_dict(json.loads(c.to_json())) == c
-    assert TrainConfig().caps.action_weights == [0.5, 1.0, 1.0, 1.0] != c.caps.action_weights
+    assert TrainConfig().caps.action_weights == [1.0, 1.0, 1.0, 1.0] != c.caps.action_weights
     with pytest.raises(SystemExit):
         parser.parse_args(["--caps.action_weights", "0.5", "1"])
 
