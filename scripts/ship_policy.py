@@ -72,7 +72,8 @@ def main() -> None:
         "goal_trim_s": meta["goal_trim_s"],
         "goal_trim_set_after_training": config["env"].get("goal_trim_s", 0.0) != meta["goal_trim_s"],
         "integral_trim": meta["integral_trim"],
-        "integral_trim_set_after_training": config["env"].get("integral_trim", 0.0) != meta["integral_trim"],
+        "integral_trim_set_after_training": (config["env"].get("flight_integral_trim", 0.0)
+                                             or config["env"].get("integral_trim", 0.0)) != meta["integral_trim"],
         "evaluation": results,
     }
     target.with_suffix(".json").write_text(json.dumps(record, indent=2, default=float))

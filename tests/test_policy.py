@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 import torch
@@ -156,7 +158,8 @@ def test_set_integral_trim_changes_only_the_trim_gains_of_a_policy_trained_with_
     path, _ = policy_file
     copy = tmp_path / "policy.pt"
     copy.write_bytes(path.read_bytes())
-    assert load_policy(path)[1]["integral_trim"] == 0.5 and not load_policy(path)[1]["observe_trims"]
+    # The trainer writes the flight trim gains (env.flight_integral_trim, 2 by default), not training's 0.5.
+    assert load_policy(path)[1]["integral_trim"] == 2.0 and not load_policy(path)[1]["observe_trims"]
     set_integral_trim(copy, 1.0)
     before, after = checked_load(path), checked_load(copy)
     assert {k for k in before if k != "actor" and before[k] != after[k]} == {"integral_trim"}
@@ -170,6 +173,30 @@ def test_set_integral_trim_changes_only_the_trim_gains_of_a_policy_trained_with_
     with pytest.raises(ValueError, match="hidden integral trims"):
         set_integral_trim(untrimmed, 1.0)
     assert policy_digest(copy) == digest  # a refused setting leaves the file as it was
+
+
+def test_the_trainer_writes_the_flight_trim_and_refuses_one_its_policy_cannot_fly(tmp_path):
+    c = TrainConfig(seed=1)
+    c.env.num_envs, c.buffer.capacity, c.log.progress = 1, 10, False
+    c.env.flight_integral_trim = 1.5
+    trainer = Trainer(c, tmp_path / "run")
+    assert trainer.task_config.integral_trim == 0.5 == trainer.eval_task_config.integral_trim  # training keeps its own
+    trainer.save_policy(tmp_path / "policy.pt", {"return_norm": 0.0})
+    assert load_policy(tmp_path / "policy.pt")[1]["integral_trim"] == 1.5
+    c.env.flight_integral_trim = 0.0  # 0: the training gains in flight too
+    Trainer(c, tmp_path / "run0").save_policy(tmp_path / "policy0.pt", {"return_norm": 0.0})
+    assert load_policy(tmp_path / "policy0.pt")[1]["integral_trim"] == 0.5
+    refused = (({"integral_trim": 0.0}, "hidden integral trims"), ({"observe_trims": True}, "hidden integral trims"),
+               ({"flight_integral_trim": 2.5}, r"\[0, 2\]"), ({"flight_integral_trim": float("nan")}, "must be > 0"))
+    for i, (settings, problem) in enumerate(refused):
+        bad = TrainConfig.from_dict(c.to_dict())
+        bad.env.flight_integral_trim = 2.0
+        for key, value in settings.items():
+            setattr(bad.env, key, value)
+        with pytest.raises(ValueError, match="env.flight_integral_trim") as err:
+            Trainer(bad, tmp_path / f"bad{i}")
+        assert re.search(problem, str(err.value)), str(err.value)
+    assert TrainConfig.preset("paper").env.flight_integral_trim == 0.0
 
 
 @pytest.mark.parametrize(("settings", "problem"), [({"integral_trim": 0.5, "observe_trims": True, "rudder_trim_s": 4.0},
@@ -267,6 +294,7 @@ def test_runtime_builds_the_environments_observation(tmp_path, decay, trim, obse
     c.env.error_integral_decay, c.env.integral_trim, c.env.observe_trims = decay, trim, observe
     c.env.trims_in_surfaces, c.env.rudder_trim_s = in_surfaces, rudder_s
     c.env.goal_trim_s = 0.0  # flight-time only: the environment's goals are not moved
+    c.env.flight_integral_trim = 0.0  # flight-time only: the policy flies with the environment's trim gains
     path = tmp_path / "policy.pt"
     Trainer(c, tmp_path / "run").save_policy(path, {"return_norm": 0.0})
     from_env, from_measurement = PolicyRuntime(path, backend="torch"), PolicyRuntime(path, backend="torch")

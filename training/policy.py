@@ -133,14 +133,22 @@ def set_integral_trim(path: Path | str, fraction: float) -> None:
     with a trim beside it; a policy trained without one, or one that sees its trims, is refused."""
     path = Path(path)
     _, meta = load_policy(path)
-    if meta["integral_trim"] <= 0.0 or meta["observe_trims"]:
-        raise ValueError(f"{path} was trained with integral_trim {meta['integral_trim']:g} and observe_trims "
-                         f"{meta['observe_trims']}: only a policy trained with hidden integral trims can fly "
-                         "with other trim gains")
+    check_flight_integral_trim(fraction, meta["integral_trim"], meta["observe_trims"], meta["rudder_trim_s"],
+                               trained_as=str(path))
+    _rewrite_setting(path, "integral_trim", fraction)
+
+
+def check_flight_integral_trim(fraction: float, trained: float, observe_trims: bool, rudder_trim_s: float,
+                               trained_as: str = "a policy") -> None:
+    """Raise ``ValueError`` naming the problem unless a policy trained with integral trim ``trained``
+    (``observe_trims`` as given) can fly with its trim at ``fraction`` of the PID's integral gains:
+    only hidden trims can change, since the policy's observation does not depend on them."""
+    if trained <= 0.0 or observe_trims:
+        raise ValueError(f"{trained_as} was trained with integral_trim {trained:g} and observe_trims {observe_trims}: "
+                         "only a policy trained with hidden integral trims can fly with other trim gains")
     if not fraction > 0.0:  # NaN fails too
         raise ValueError(f"integral_trim must be > 0 for a policy trained with one, got {fraction}")
-    check_trim_settings(fraction, meta["observe_trims"], meta["rudder_trim_s"])
-    _rewrite_setting(path, "integral_trim", fraction)
+    check_trim_settings(fraction, observe_trims, rudder_trim_s)
 
 
 def policy_digest(path: Path | str) -> str:
@@ -333,6 +341,7 @@ __all__ = [
     "DeterministicActor",
     "PolicyFileError",
     "PolicyRuntime",
+    "check_flight_integral_trim",
     "export_onnx",
     "load_policy",
     "onnx_source_digest",

@@ -30,6 +30,7 @@ from jsbsim_env.torchrl_env import make_env
 from training.checkpoint import CheckpointError, atomic_save, config_fingerprint, load_checkpoint, save_checkpoint
 from training.config import TrainConfig
 from training.networks import StateCriticNet, make_actor, make_critic
+from training.policy import check_flight_integral_trim
 from training.relabel import relabel_goals
 from training.runtime import check_threads
 from training.sac import RecurrentSAC
@@ -106,6 +107,13 @@ class Trainer:
         self.device = torch.device(c.device)
         if len(c.env.delay_ms) != 2:
             raise ValueError(f"env.delay_ms must be two numbers (low high), got {c.env.delay_ms}")
+        if c.env.flight_integral_trim:
+            try:
+                check_flight_integral_trim(c.env.flight_integral_trim, c.env.integral_trim, c.env.observe_trims,
+                                           c.env.rudder_trim_s, trained_as="this run")
+            except ValueError as err:
+                raise ValueError(f"env.flight_integral_trim {c.env.flight_integral_trim:g}: {err} "
+                                 "(env.flight_integral_trim 0 flies with the training one)") from None
         # The run's own evaluation flies SPEC's disturbances (``eval_core``) whatever it trains in.
         eval_core = CoreConfig() if c.env.disturbances else CoreConfig.ideal()
         core = (dataclasses.replace(eval_core, turbulence_sigma_mps=c.env.turbulence_sigma_mps,
@@ -208,7 +216,8 @@ class Trainer:
             "network": self.config.network.__dict__,
             "window": self.config.env.window,
             "error_integral_decay": self.config.env.error_integral_decay,
-            "integral_trim": self.config.env.integral_trim,
+            # the trim gains it flies with: training's, or the flight setting where there is one
+            "integral_trim": self.config.env.flight_integral_trim or self.config.env.integral_trim,
             "observe_trims": self.config.env.observe_trims,
             "trims_in_surfaces": self.config.env.trims_in_surfaces,
             "rudder_trim_s": self.config.env.rudder_trim_s,
