@@ -179,7 +179,8 @@ class Trainer:
     def _load(self) -> None:
         data = load_checkpoint(self.checkpoint_path, required=("config", "sac", "optimizer", "buffer", "counters"))
         # Compare the run's settings as this version reads them: a setting added since the run
-        # started takes its default on both sides instead of making every older run unresumable.
+        # started takes the value the run trained with (config.LEGACY_VALUES) on both sides,
+        # instead of making every older run unresumable.
         try:
             saved = resume_fingerprint(TrainConfig.from_dict(data["config"]))
         except (TypeError, ValueError) as err:
