@@ -22,7 +22,7 @@ from torchrl.envs.utils import RandomPolicy
 
 from training.config import TrainConfig
 from training.networks import StateCriticNet, make_critic
-from training.runtime import tune_allocator
+from training.runtime import torchrl_logs_to_stderr, tune_allocator
 from training.sac_reference import SACLossReference
 from training.trainer import Trainer
 
@@ -38,6 +38,7 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=3, help="repeats of each measurement; the median is reported")
     parser.add_argument("--json", action="store_true", help="print the figures as JSON")
     args = parser.parse_args()
+    torchrl_logs_to_stderr()
     tune_allocator()
     config = TrainConfig(device=args.device, threads=args.threads)
     config.network.critic = args.critic

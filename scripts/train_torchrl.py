@@ -17,7 +17,7 @@ from pathlib import Path
 from training.checkpoint import CheckpointError
 from training.config import PRESETS, TrainConfig
 from training.provenance import append_session
-from training.runtime import tune_allocator
+from training.runtime import torchrl_logs_to_stderr, tune_allocator
 from training.trainer import RunLockedError, Trainer, TrainingInterrupted
 
 # Exit codes of a run stopped by a signal, as a shell reports them (128 + signal number).
@@ -44,7 +44,7 @@ def main(argv: list[str] | None = None) -> int:
                                           "default: a local Ray instance)")
     TrainConfig.add_arguments(parser)
     args = parser.parse_args(argv)
-    _log_to_stderr()
+    torchrl_logs_to_stderr()
     tune_allocator()
     if args.resume and args.preset != "default":
         parser.error("--preset starts a new run; a resumed run keeps the settings it was started with")
@@ -110,15 +110,6 @@ def _train_seeds(args, command: list[str]) -> int:
             f = summary["final_eval_return"]
             print(f"over {f['seeds']} seeds: {f['mean']:.3f} ({f['min']:.3f}-{f['max']:.3f}); curves in {summary['figure']}")
     return 0
-
-
-def _log_to_stderr() -> None:
-    """TorchRL logs to stdout; this package keeps stdout for results."""
-    import logging
-
-    for handler in logging.getLogger("torchrl").handlers:
-        if isinstance(handler, logging.StreamHandler) and handler.stream is sys.stdout:
-            handler.setStream(sys.stderr)
 
 
 if __name__ == "__main__":

@@ -143,6 +143,15 @@ def test_config_of_an_older_run_keeps_the_settings_it_trained_with():
     assert LEGACY_VALUES["caps.action_weights"] == [1.0, 1.0, 1.0, 1.0]
 
 
+def test_training_benchmark_prints_only_its_figures_on_stdout():
+    """TorchRL logs to stdout; with --json the benchmark's stdout must be one JSON object."""
+    done = subprocess.run([sys.executable, str(SCRIPTS / "bench_train.py"), "--json", "--updates", "2", "--rounds", "1"],
+                          capture_output=True, text=True, check=False, timeout=300)
+    assert done.returncode == 0, done.stderr
+    figures = json.loads(done.stdout)
+    assert figures["update_ms"] > 0 and figures["reference_update_ms"] > 0 and figures["batch_size"] == 256
+
+
 def test_train_script_help_lists_the_settings():
     done = subprocess.run([sys.executable, str(SCRIPTS / "train_torchrl.py"), "--help"], capture_output=True,
                           text=True, check=False, timeout=120)

@@ -50,3 +50,13 @@ def check_threads(threads: int, processes: int = 1) -> str | None:
             "wait on each other and training slows many times; give each run --threads 1 or fewer runs")
     warnings.warn(text, RuntimeWarning, stacklevel=2)
     return text
+
+
+def torchrl_logs_to_stderr() -> None:
+    """Send TorchRL's log lines to stderr: it logs to stdout, which this package keeps for results
+    (``--json``)."""
+    import logging
+
+    for handler in logging.getLogger("torchrl").handlers:
+        if isinstance(handler, logging.StreamHandler) and handler.stream is sys.stdout:
+            handler.setStream(sys.stderr)
