@@ -17,6 +17,7 @@ from pathlib import Path
 
 import torch
 
+from training.config import TrainConfig
 from training.policy import SHIPPED_POLICY, PolicyRuntime, export_onnx, load_policy, policy_digest
 from training.provenance import read_sessions, training_wall_clock
 from training.suite import evaluate
@@ -54,6 +55,7 @@ def main() -> None:
     if len(models) > 1:
         parser.error(f"{args.run_dir} was trained on more than one aircraft model ({sorted(map(str, models))})")
     config = json.loads((args.run_dir / "config.json").read_text())
+    trained = TrainConfig.from_dict(config).env  # settings the run predates take the values it trained with
     SHIPPED_DIR.mkdir(parents=True, exist_ok=True)
     target = SHIPPED_DIR / SHIPPED_POLICY
     shutil.copyfile(source, target)
@@ -70,10 +72,9 @@ def main() -> None:
         "config": config,
         # flight-time settings: scripts/set_trims.py may have set them after training
         "goal_trim_s": meta["goal_trim_s"],
-        "goal_trim_set_after_training": config["env"].get("goal_trim_s", 0.0) != meta["goal_trim_s"],
+        "goal_trim_set_after_training": trained.goal_trim_s != meta["goal_trim_s"],
         "integral_trim": meta["integral_trim"],
-        "integral_trim_set_after_training": (config["env"].get("flight_integral_trim", 0.0)
-                                             or config["env"].get("integral_trim", 0.0)) != meta["integral_trim"],
+        "integral_trim_set_after_training": trained.flown_integral_trim != meta["integral_trim"],
         "evaluation": results,
     }
     target.with_suffix(".json").write_text(json.dumps(record, indent=2, default=float))

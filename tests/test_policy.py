@@ -182,10 +182,10 @@ def test_the_trainer_writes_the_flight_trim_and_refuses_one_its_policy_cannot_fl
     trainer = Trainer(c, tmp_path / "run")
     assert trainer.task_config.integral_trim == 0.5 == trainer.eval_task_config.integral_trim  # training keeps its own
     trainer.save_policy(tmp_path / "policy.pt", {"return_norm": 0.0})
-    assert load_policy(tmp_path / "policy.pt")[1]["integral_trim"] == 1.5
+    assert load_policy(tmp_path / "policy.pt")[1]["integral_trim"] == 1.5 == c.env.flown_integral_trim
     c.env.flight_integral_trim = 0.0  # 0: the training gains in flight too
     Trainer(c, tmp_path / "run0").save_policy(tmp_path / "policy0.pt", {"return_norm": 0.0})
-    assert load_policy(tmp_path / "policy0.pt")[1]["integral_trim"] == 0.5
+    assert load_policy(tmp_path / "policy0.pt")[1]["integral_trim"] == 0.5 == c.env.flown_integral_trim
     refused = (({"integral_trim": 0.0}, "hidden integral trims"), ({"observe_trims": True}, "hidden integral trims"),
                ({"flight_integral_trim": 2.5}, r"\[0, 2\]"), ({"flight_integral_trim": float("nan")}, "must be > 0"))
     for i, (settings, problem) in enumerate(refused):

@@ -75,6 +75,12 @@ class EnvSettings:
                                        "policy and whose EAS goal is the measured EAS, as on a route under TECS "
                                        "(0: none, as the paper)")
 
+    @property
+    def flown_integral_trim(self) -> float:
+        """The integral trim gains this run's policy files fly with: ``flight_integral_trim``, or
+        ``integral_trim`` where that is 0."""
+        return self.flight_integral_trim or self.integral_trim
+
 
 @dataclass
 class CollectorSettings:

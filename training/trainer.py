@@ -217,8 +217,7 @@ class Trainer:
             "network": self.config.network.__dict__,
             "window": self.config.env.window,
             "error_integral_decay": self.config.env.error_integral_decay,
-            # the trim gains it flies with: training's, or the flight setting where there is one
-            "integral_trim": self.config.env.flight_integral_trim or self.config.env.integral_trim,
+            "integral_trim": self.config.env.flown_integral_trim,
             "observe_trims": self.config.env.observe_trims,
             "trims_in_surfaces": self.config.env.trims_in_surfaces,
             "rudder_trim_s": self.config.env.rudder_trim_s,
