@@ -18,7 +18,7 @@ default):
 4. The flight core applies the commands with its delay, actuator lag and rate limits, backlash,
    turbulence (on the chosen legs only), sensor noise and parameter set.
 
-The result holds the time histories and the metrics of ``jsbsim_env.metrics``.
+The result holds the time histories and the metrics of ``jsbsim_env.task.metrics``.
 """
 
 from __future__ import annotations
@@ -29,13 +29,13 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from jsbsim_env.controllers.base import AttitudeController
-from jsbsim_env.controllers.l1 import G_MPS2, L1Guidance, L1Params
-from jsbsim_env.controllers.pid import GainSchedule
-from jsbsim_env.controllers.tecs import TECS, TECSParams
-from jsbsim_env.core import CoreConfig, FlightCore
-from jsbsim_env.metrics import actuator_smoothness, rmse
-from jsbsim_env.task import EAS_INDEX
+from jsbsim_env.control.base import AttitudeController
+from jsbsim_env.control.l1 import G_MPS2, L1Guidance, L1Params
+from jsbsim_env.control.pid import GainSchedule
+from jsbsim_env.control.tecs import TECS, TECSParams
+from jsbsim_env.sim.core import CoreConfig, FlightCore
+from jsbsim_env.task.metrics import actuator_smoothness, rmse
+from jsbsim_env.task.attitude import EAS_INDEX
 
 ATTITUDE_EAS_DEMANDS = ("measured", "route")
 RECTANGLE_ALTITUDE_M = 10_000.0  # the default rectangle's legs are drawn for this altitude (the paper's route)

@@ -24,20 +24,20 @@ import numpy as np
 import torch
 
 import aircraft
-from jsbsim_env.controllers.pid import PIDAttitudeController
+from jsbsim_env.control.pid import PIDAttitudeController
 from jsbsim_env.missions import RouteConfig
-from training.controllers import make_controller
-from training.policy import load_policy, policy_digest
+from jsbsim_env.control.factory import make_controller
+from jsbsim_env.control.policy import load_policy, policy_digest
 from training.provenance import training_wall_clock
-from training.report import render_markdown, run_report
-from training.suite import suite_episodes
+from training.evaluation.report import render_markdown, run_report
+from training.evaluation.suite import suite_episodes
 
 # Scorecard sections (named by the key each adds to the scorecard) and the report experiments
 # they are flown with; a cached scorecard that lacks a section gets only that section's flights.
 SECTIONS = {"route_10km": ("altitudes", "route_10km"), "table9": ("perturbation",)}
 # Part of every scorecard's cache key: raise it when the scoring itself changes (its windows, not
 # the route settings, which are in the key). 2: the steady-state window after each corner grows
-# with the turn time above 10 km (training.report.steady_mask), and the level-flight errors leave
+# with the turn time above 10 km (training.evaluation.report.steady_mask), and the level-flight errors leave
 # out the corner in the level window as the steady-state errors do.
 SCORING_VERSION = 2
 # (column, where it sits in a scorecard); steady-state errors are calm air, the RMSEs the turbulent leg.

@@ -30,10 +30,10 @@ import time
 import numpy as np
 import torch
 
-from jsbsim_env.core import CoreConfig, FlightCore
-from jsbsim_env.task import ACTION_OFFSET, ACTION_SCALE, AttitudeTask, command_to_action
-from jsbsim_env.torchrl_env import SolarUAVAttitudeEnv
-from jsbsim_env.trim_table import TrimTable
+from jsbsim_env.sim.core import CoreConfig, FlightCore
+from jsbsim_env.task.attitude import ACTION_OFFSET, ACTION_SCALE, AttitudeTask, command_to_action
+from jsbsim_env.task.torchrl_env import SolarUAVAttitudeEnv
+from jsbsim_env.sim.trim_table import TrimTable
 
 
 def raw_rate(seconds: float) -> float:

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from training.policy import PolicyRuntime
+from jsbsim_env.control.policy import PolicyRuntime
 
 
 def timed_us(call, steps: int) -> np.ndarray:

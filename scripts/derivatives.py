@@ -2,7 +2,7 @@
 
     python scripts/derivatives.py --altitude-m 1000 --veas-mps 10 [--json]
 
-Central differences of JSBSim's total aerodynamic forces and moments (jsbsim_env/derivatives.py),
+Central differences of JSBSim's total aerodynamic forces and moments (jsbsim_env/analysis/derivatives.py),
 the aileron's yaw-to-roll ratio in body and stability axes, the largest yaw rate against the roll
 after a held 5 deg aileron step, and the linear modes. Exits with status 2 when no trim exists.
 """
@@ -14,9 +14,9 @@ import json
 import math
 import sys
 
-from jsbsim_env import derivatives
-from jsbsim_env.modes import LinearisationError, linear_modes
-from jsbsim_env.sim import Simulation, TrimError
+from jsbsim_env.analysis import derivatives
+from jsbsim_env.analysis.modes import LinearisationError, linear_modes
+from jsbsim_env.sim.simulation import Simulation, TrimError
 
 
 def measure(altitude_m: float, airspeed_eas_mps: float) -> dict:

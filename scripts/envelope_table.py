@@ -9,8 +9,8 @@ from __future__ import annotations
 import argparse
 import json
 
-from jsbsim_env.modes import linear_modes
-from jsbsim_env.sim import Simulation
+from jsbsim_env.analysis.modes import linear_modes
+from jsbsim_env.sim.simulation import Simulation
 
 ALTITUDES_M = (500.0, 1000.0, 5000.0, 10000.0, 15000.0, 20000.0)
 EAS_MPS = (8.0, 10.0, 12.0)

@@ -15,11 +15,10 @@ from pathlib import Path
 
 import torch
 
-from jsbsim_env.controllers.integral_trim import IntegralTrim
-from jsbsim_env.controllers.pid import PIDAttitudeController
-from jsbsim_env.metrics import json_ready
-from training.policy import PolicyFileError, PolicyRuntime
-from training.suite import evaluate
+from jsbsim_env.control.pid import PIDAttitudeController
+from jsbsim_env.task.metrics import json_ready
+from jsbsim_env.control.policy import PolicyFileError, PolicyRuntime
+from training.evaluation.suite import evaluate
 
 
 def why_null(path: str) -> str:
@@ -41,13 +40,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--plots", type=Path, help="folder for the doublet plots (none when omitted)")
     parser.add_argument("--backend", choices=("onnx", "torch"), default="onnx",
                         help="runtime of the policy: onnxruntime or PyTorch")
-    parser.add_argument("--integral-trim", type=float, default=0.0, metavar="FRACTION",
-                        help="fly the policy with integral trim (jsbsim_env.controllers.integral_trim) at this "
-                             "fraction of the PID's integral gains; 0: the policy alone")
     parser.add_argument("--json", action="store_true", help="print the metrics as JSON (no progress bar)")
     args = parser.parse_args(argv)
-    if args.controller == "pid" and (args.policy or args.backend != "onnx" or args.integral_trim):
-        parser.error("--policy, --backend and --integral-trim are for --controller policy")
+    if args.controller == "pid" and (args.policy or args.backend != "onnx"):
+        parser.error("--policy and --backend are for --controller policy")
     if args.episodes < 1:
         parser.error(f"--episodes must be at least 1, got {args.episodes}")
     torch.set_num_threads(1)
@@ -59,10 +55,8 @@ def main(argv: list[str] | None = None) -> int:
         except PolicyFileError as err:
             print(f"evaluate: {err}", file=sys.stderr)
             return 2
-        about = {"name": "policy", **{k: v for k, v in controller.meta.items() if k != "network"}}
-        if args.integral_trim:
-            controller = IntegralTrim(controller, args.integral_trim)
-            about["integral_trim"] = args.integral_trim
+        about = {"name": "policy", **{k: v for k, v in controller.meta.items() if k not in ("network", "stack")},
+                 "stack": controller.meta["stack"].to_dict()}
     results = evaluate(controller, episodes=args.episodes, plot_dir=args.plots, progress=not args.json)
     results["controller"] = about
     nulls: dict[str, str] = {}

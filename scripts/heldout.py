@@ -1,4 +1,4 @@
-"""Fly trained runs' best policies (and the PID) on the held-out flights of training.heldout: the
+"""Fly trained runs' best policies (and the PID) on the held-out flights of training.evaluation.heldout: the
 report's kinds of flight at other altitudes and route seeds, for choosing among seeds without
 choosing on the report's own flights. One row per run.
 
@@ -6,7 +6,7 @@ choosing on the report's own flights. One row per run.
     python scripts/heldout.py runs/c12_seed0 runs/c12_seed1 runs/c12_seed2 --pick
 
 ``--pick`` also flies the PID and names the run whose scores are best relative to the PID's
-(``training.heldout.relative_score``: the geometric mean of each measure over the PID's; a run
+(``training.evaluation.heldout.relative_score``: the geometric mean of each measure over the PID's; a run
 that ends a flight early or whose surfaces chatter in calm air is never picked), the seed to ship
 with ``scripts/ship_policy.py``.
 """
@@ -20,9 +20,9 @@ from pathlib import Path
 
 import torch
 
-from jsbsim_env.controllers.pid import PIDAttitudeController
-from training.controllers import make_controller
-from training.heldout import CHATTER_LIMIT, heldout_flights, heldout_scores, relative_score, surface_activity_ratios
+from jsbsim_env.control.pid import PIDAttitudeController
+from jsbsim_env.control.factory import make_controller
+from training.evaluation.heldout import CHATTER_LIMIT, heldout_flights, heldout_scores, relative_score, surface_activity_ratios
 
 
 def markdown(rows: dict[str, dict]) -> str:

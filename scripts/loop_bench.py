@@ -31,8 +31,6 @@ def parse_args(argv=None) -> argparse.Namespace:
                    help="realtime: 25 Hz frame clock with deadlines; lockstep: wait for every answer (deterministic)")
     p.add_argument("--controller", choices=("policy", "pid"), default="policy", help="the controller process flies this")
     p.add_argument("--policy", default=None, help="policy file (.pt); the shipped policy when omitted")
-    p.add_argument("--integral-trim", type=float, default=0.0, metavar="FRACTION",
-                   help="the policy with integral trim at this fraction of the PID's integral gains; 0: alone")
     p.add_argument("--duration", type=float, default=60.0, help="flight time, s")
     p.add_argument("--baud", type=int, default=115_200, help="line rate, bit/s (10 bits a byte)")
     p.add_argument("--faults", default="",
@@ -53,9 +51,9 @@ def in_process(args) -> dict:
     """The same route, controller and seed flown in this process (``missions.fly_route``)."""
     from jsbsim_env.bench.plant import bench_route
     from jsbsim_env.missions import fly_route
-    from training.controllers import make_controller
+    from jsbsim_env.control.factory import make_controller
 
-    result = fly_route(make_controller(args.controller, args.policy, args.integral_trim),
+    result = fly_route(make_controller(args.controller, args.policy),
                        bench_route(args.duration, args.seed))
     return {"tracking_rmse": {k[len("rmse_"):]: v for k, v in result.metrics().items() if k.startswith("rmse_")},
             "ended_early": result.ended_early}
@@ -65,11 +63,11 @@ def main(argv=None) -> int:
     args = parse_args(argv)
     from jsbsim_env.bench.link import Faults
     from jsbsim_env.bench.plant import BenchConfig, plot_bench, run_bench
-    from jsbsim_env.metrics import json_ready
+    from jsbsim_env.task.metrics import json_ready
 
     try:
         cfg = BenchConfig(mode=args.mode, controller=args.controller, policy=args.policy,
-                          integral_trim=args.integral_trim, duration_s=args.duration,
+                          duration_s=args.duration,
                           baud=args.baud, faults=Faults.parse(args.faults), device=args.device, seed=args.seed,
                           timeout_frames=args.timeout_frames, recover_frames=args.recover_frames)
     except ValueError as exc:

@@ -1,8 +1,8 @@
-"""Rewrite the trimmed initial conditions and the doublet runscripts (see jsbsim_env.runscripts)."""
+"""Rewrite the trimmed initial conditions and the doublet runscripts (see jsbsim_env.analysis.runscripts)."""
 
 from pathlib import Path
 
-from jsbsim_env.runscripts import generated_files
+from jsbsim_env.analysis.runscripts import generated_files
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 

@@ -14,7 +14,7 @@ and airspeed being measured however strong the turbulence. The whole table takes
 W20 (``windspeed_at_20ft_AGL-fps``, which matters below 2000 ft only): 25 ft/s (15 kt) up to
 severity 3, 50 ft/s (30 kt) for 4-5 and 75 ft/s (45 kt) for 6-7, as JSBSim documents for light,
 moderate and severe. Beside the named severities, this package's MIL-F-8785C sigma_w
-(``jsbsim_env.turbulence.milspec_intensities_mps``) for comparison.
+(``jsbsim_env.sim.turbulence.milspec_intensities_mps``) for comparison.
 """
 
 from __future__ import annotations
@@ -25,8 +25,8 @@ import math
 
 import numpy as np
 
-from jsbsim_env import turbulence as turb
-from jsbsim_env.sim import FT_TO_M, Simulation
+from jsbsim_env.sim import turbulence as turb
+from jsbsim_env.sim.simulation import FT_TO_M, Simulation
 
 ALTITUDES_M = (500.0, 1000.0, 2000.0, 5000.0, 10000.0, 15000.0, 20000.0)
 SEVERITIES = (1, 2, 3, 4, 5, 6, 7)
@@ -90,7 +90,7 @@ def markdown(points: list[dict]) -> str:
             cells.append(cell)
         lines.append(f"| {sev}{name} | " + " | ".join(cells) + " |")
     lines += ["", ("RMS of the horizontal / vertical turbulence velocity, m/s; in brackets the MIL-F-8785C "
-                   "sigma_w of jsbsim_env.turbulence for the named severities.")]
+                   "sigma_w of jsbsim_env.sim.turbulence for the named severities.")]
     return "\n".join(lines)
 
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from jsbsim_env.effectiveness import effectiveness, plot_effectiveness
+from jsbsim_env.analysis.effectiveness import effectiveness, plot_effectiveness
 
 
 def main() -> None:

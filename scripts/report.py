@@ -14,7 +14,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from training.report import CONTROLLERS, EXPERIMENTS, run_report
+from training.evaluation.report import CONTROLLERS, EXPERIMENTS, run_report
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -28,9 +28,6 @@ def main(argv: list[str] | None = None) -> int:
                         help="comma-separated subset of the experiments (default: all of them)")
     parser.add_argument("--controllers", default=",".join(CONTROLLERS),
                         help="comma-separated subset of the controllers (default: both)")
-    parser.add_argument("--integral-trim", type=float, default=0.0, metavar="FRACTION",
-                        help="fly the policy with integral trim (jsbsim_env.controllers.integral_trim) at this "
-                             "fraction of the PID's integral gains; 0: the policy alone")
     args = parser.parse_args(argv)
     experiments, controllers = (tuple(filter(None, v.split(","))) for v in (args.experiments, args.controllers))
     for label, given, known in (("experiment", experiments, EXPERIMENTS), ("controller", controllers, CONTROLLERS)):
@@ -38,7 +35,7 @@ def main(argv: list[str] | None = None) -> int:
         if bad or not given:
             parser.error(f"unknown or no {label} {bad}: choose from {', '.join(known)}")
     run_report(args.out, args.policy, quick=args.quick, progress=not args.no_progress, experiments=experiments,
-               controllers=controllers, integral_trim=args.integral_trim)
+               controllers=controllers)
     print(f"wrote {args.out / 'report.md'}")
     return 0
 

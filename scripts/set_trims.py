@@ -3,7 +3,7 @@
     python scripts/set_trims.py runs/<name>/best_policy.pt --goal-trim-s 20
     python scripts/set_trims.py runs/<name>/best_policy.pt --integral-trim 1.0
 
-The goal trim (``jsbsim_env.controllers.goal_trim``) is a flight-time setting: recorded in the
+The goal trim (``jsbsim_env.control.goal_trim``) is a flight-time setting: recorded in the
 policy file and applied by ``PolicyRuntime``; training episodes go without it. New runs record
 ``--env.goal_trim_s`` (20 s by default); this gives any other policy the same. The integral trim's
 gains (a fraction of the PID's integral gains, ``--env.integral_trim`` in training) may be changed
@@ -15,7 +15,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from training.policy import load_policy, set_goal_trim, set_integral_trim
+from jsbsim_env.control.policy import load_policy, set_goal_trim, set_integral_trim
 
 
 def main() -> None:

@@ -18,11 +18,11 @@ from pathlib import Path
 import torch
 
 from training.config import TrainConfig
-from training.policy import SHIPPED_POLICY, PolicyRuntime, export_onnx, load_policy, policy_digest
+from jsbsim_env.control.policy import SHIPPED_POLICY, PolicyRuntime, export_onnx, load_policy, policy_digest
 from training.provenance import read_sessions, training_wall_clock
-from training.suite import evaluate
+from training.evaluation.suite import evaluate
 
-SHIPPED_DIR = Path(__file__).resolve().parents[1] / "training" / "shipped"
+SHIPPED_DIR = Path(__file__).resolve().parents[1] / "jsbsim_env" / "control" / "shipped"
 
 
 def main() -> None:

@@ -9,7 +9,7 @@ end and why, RMSE per axis, error over the last 2 s, surface activity), ``sweep.
 the command and a summary: mean return and early ends per controller and condition, and where
 each controller first ended an episode early along each axis), ``command.txt`` and one PNG per
 axis (each controller's mean return and pitch RMSE against the axis, with their spread over
-episodes and the other axes). Axes and units: ``training/sweep.py``.
+episodes and the other axes). Axes and units: ``training/evaluation/sweep.py``.
 """
 
 from __future__ import annotations
@@ -24,9 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
-from jsbsim_env.metrics import json_ready
-from training.controllers import CONTROLLER_NAMES
-from training.sweep import AXIS_UNITS, breaking_points, grid, jobs_for, parse_axis, run_local, run_ray
+from jsbsim_env.task.metrics import json_ready
+from jsbsim_env.control.factory import CONTROLLER_NAMES
+from training.evaluation.sweep import AXIS_UNITS, breaking_points, grid, jobs_for, parse_axis, run_local, run_ray
 
 
 def parse_args(argv=None) -> argparse.Namespace:

@@ -12,8 +12,8 @@ import argparse
 import json
 import sys
 
-from jsbsim_env.modes import LinearisationError, linear_modes
-from jsbsim_env.sim import Simulation, TrimError
+from jsbsim_env.analysis.modes import LinearisationError, linear_modes
+from jsbsim_env.sim.simulation import Simulation, TrimError
 
 
 def main(argv: list[str] | None = None) -> int:

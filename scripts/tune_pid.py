@@ -1,8 +1,8 @@
 """Tune the gain-scheduled PID baseline on the aircraft's linear models and store the gain table.
 
-    python scripts/tune_pid.py            # writes jsbsim_env/controllers/pid_gains.json
+    python scripts/tune_pid.py            # writes jsbsim_env/control/pid_gains.json
 
-The method is in ``jsbsim_env/controllers/tuning.py``: ITAE of reference steps plus a
+The method is in ``jsbsim_env/control/tuning.py``: ITAE of reference steps plus a
 sensor-noise penalty, subject to 6 dB of gain margin and 80 ms of extra delay, at each design
 altitude at EAS 10 m/s.
 """
@@ -12,7 +12,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from jsbsim_env.controllers.pid import GAINS_PATH, write_gain_table
+from jsbsim_env.control.pid import GAINS_PATH, write_gain_table
 
 
 def main(argv: list[str] | None = None) -> int:

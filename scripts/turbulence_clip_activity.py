@@ -5,7 +5,7 @@
 
 At each altitude and EAS of the grid, a stationary series of ``--seconds`` at a 50 ms control
 interval (the middle of the training draw) is generated with each clip rule of
-``jsbsim_env.turbulence`` ("4sigma", the default, and "paper"), and the share of samples held at
+``jsbsim_env.sim.turbulence`` ("4sigma", the default, and "paper"), and the share of samples held at
 the clip is counted per channel (u, v, w, p, q, r).
 """
 
@@ -17,8 +17,8 @@ import math
 
 import numpy as np
 
-from jsbsim_env import turbulence as turb
-from jsbsim_env.sim import Simulation
+from jsbsim_env.sim import turbulence as turb
+from jsbsim_env.sim.simulation import Simulation
 
 ALTITUDES_M = (500.0, 1000.0, 2000.0, 5000.0, 10000.0, 15000.0, 20000.0)
 EAS_MPS = (8.0, 10.0, 12.0)

@@ -1,4 +1,4 @@
-"""The aerodynamic model as physics statements, measured through JSBSim (jsbsim_env.derivatives).
+"""The aerodynamic model as physics statements, measured through JSBSim (jsbsim_env.analysis.derivatives).
 
 Hand estimates use textbook formulas with Helmbold's lift slope, not the vortex lattice the model
 comes from, so that they are an independent check.
@@ -14,9 +14,9 @@ import pytest
 from aircraft.design import aero_data
 from aircraft.design.analysis import _mac_quarter_chord, _trapezoid_area_m2, yaw_damping_per_section_drag
 from aircraft.design.geometry import AircraftGeometry
-from jsbsim_env import derivatives
-from jsbsim_env.modes import LONGITUDINAL_STATES, linearise
-from jsbsim_env.sim import Simulation
+from jsbsim_env.analysis import derivatives
+from jsbsim_env.analysis.modes import LONGITUDINAL_STATES, linearise
+from jsbsim_env.sim.simulation import Simulation
 
 GEOMETRY = AircraftGeometry()
 DATA = aero_data.load()

@@ -14,11 +14,11 @@ import torch
 
 import aircraft
 import jsbsim_env
-from jsbsim_env import disturbances as dist
-from jsbsim_env.core import NOISE_SIGMA, CommandError, CoreConfig, Envelope, FlightCore
-from jsbsim_env.metrics import EpisodeRecorder, actuator_smoothness, rmse, smoothness
-from jsbsim_env.sim import TERRAIN_ELEVATION_M
-from jsbsim_env.task import (
+from jsbsim_env.sim import disturbances as dist
+from jsbsim_env.sim.core import NOISE_SIGMA, CommandError, CoreConfig, Envelope, FlightCore
+from jsbsim_env.task.metrics import EpisodeRecorder, actuator_smoothness, rmse, smoothness
+from jsbsim_env.sim.simulation import TERRAIN_ELEVATION_M
+from jsbsim_env.task.attitude import (
     GOAL_HIGH,
     GOAL_LOW,
     OBS_SIZE,
@@ -29,7 +29,7 @@ from jsbsim_env.task import (
     command_to_action,
     reward_terms,
 )
-from jsbsim_env.torchrl_env import SolarUAVAttitudeEnv, make_env
+from jsbsim_env.task.torchrl_env import SolarUAVAttitudeEnv, make_env
 
 
 def _hold(task: AttitudeTask) -> np.ndarray:

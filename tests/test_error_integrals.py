@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 import torch
 
-from jsbsim_env.core import CoreConfig
-from jsbsim_env.task import INTEGRAL_GAIN, OBS_SIZE, ErrorIntegrals, TaskConfig
-from jsbsim_env.torchrl_env import make_env
+from jsbsim_env.sim.core import CoreConfig
+from jsbsim_env.task.attitude import INTEGRAL_GAIN, OBS_SIZE, ErrorIntegrals, TaskConfig
+from jsbsim_env.task.torchrl_env import make_env
 from training.relabel import relabel_goals
 
 DECAY = 0.99

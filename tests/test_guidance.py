@@ -13,9 +13,9 @@ import math
 import numpy as np
 import pytest
 
-from jsbsim_env.controllers.l1 import G_MPS2, L1Guidance, L1Params
-from jsbsim_env.controllers.pid import GainSchedule, PIDAttitudeController
-from jsbsim_env.controllers.tecs import TECS, TECSParams
+from jsbsim_env.control.l1 import G_MPS2, L1Guidance, L1Params
+from jsbsim_env.control.pid import GainSchedule, PIDAttitudeController
+from jsbsim_env.control.tecs import TECS, TECSParams
 
 DT_S = 0.04  # 25 Hz, as in the missions
 ATTITUDE_LAG_S = 1.0
@@ -163,9 +163,9 @@ def test_stored_gain_table_is_what_the_tuning_gives():
     from the default gains) reproduces it, and every design point is stable with its margins."""
     from dataclasses import asdict
 
-    from jsbsim_env.controllers import tuning
-    from jsbsim_env.controllers.pid import DESIGN_ALTITUDES_M, design_gains
-    from jsbsim_env.sim import Simulation
+    from jsbsim_env.control import tuning
+    from jsbsim_env.control.pid import DESIGN_ALTITUDES_M, design_gains
+    from jsbsim_env.sim.simulation import Simulation
 
     table = GainSchedule()
     stored = table.at(DESIGN_ALTITUDES_M[0])

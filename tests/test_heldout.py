@@ -12,10 +12,10 @@ from pathlib import Path
 import numpy as np
 from test_ablation import _run_folder
 
-from training import heldout
-from training.heldout import heldout_flights, relative_score
-from training.policy import shipped_policy_path
-from training.report import ROUTE_SEED
+from training.evaluation import heldout
+from training.evaluation.heldout import heldout_flights, relative_score
+from jsbsim_env.control.policy import shipped_policy_path
+from training.evaluation.report import ROUTE_SEED
 
 SCRIPT = Path(__file__).resolve().parents[1] / "scripts" / "heldout.py"
 

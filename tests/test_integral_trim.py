@@ -7,11 +7,11 @@ from dataclasses import astuple
 import numpy as np
 import pytest
 
-from jsbsim_env.controllers.goal_trim import GoalTrim
-from jsbsim_env.controllers.integral_trim import IntegralTrim
-from jsbsim_env.controllers.pid import SURFACE_INTEGRATOR_LIMIT_DEG, PIDAttitudeController
+from jsbsim_env.control.goal_trim import GoalTrim
+from jsbsim_env.control.integral_trim import IntegralTrim
+from jsbsim_env.control.pid import SURFACE_INTEGRATOR_LIMIT_DEG, PIDAttitudeController
 from jsbsim_env.missions import RouteConfig, fly_route
-from training.report import steady_state_errors
+from training.evaluation.report import steady_state_errors
 
 
 class _Offset:
@@ -108,7 +108,7 @@ def test_a_policy_with_built_in_trim_refuses_a_second_one():
 def test_gain_schedule_interpolates_as_np_interp_to_the_bit():
     """The schedule the PID, the speed hold and the integral trims read every step gives np.interp's
     values exactly, between, at and beyond the design points."""
-    from jsbsim_env.controllers.pid import GainSchedule
+    from jsbsim_env.control.pid import GainSchedule
 
     schedule = GainSchedule()
     altitudes = [-100.0, 0.0, 499.0, 1000.0, 7_321.5, 20_000.0, 25_000.0, *schedule.altitudes_m.tolist(),
@@ -122,7 +122,7 @@ def test_gain_schedule_interpolates_as_np_interp_to_the_bit():
 
 @pytest.mark.parametrize(("fraction", "observe"), [(0.0, False), (0.5, True)])
 def test_a_rudder_trim_needs_hidden_integral_trims(fraction, observe):
-    from jsbsim_env.task import TaskConfig
+    from jsbsim_env.task.attitude import TaskConfig
 
     with pytest.raises(ValueError, match="a rudder trim"):
         TaskConfig(integral_trim=fraction, observe_trims=observe, rudder_trim_s=2.0)

@@ -28,7 +28,7 @@ from jsbsim_env.bench.wire import (
     wire_command,
     wire_state,
 )
-from jsbsim_env.controllers.pid import PIDAttitudeController
+from jsbsim_env.control.pid import PIDAttitudeController
 from jsbsim_env.missions import fly_route
 
 MEASUREMENT = np.array([10012.5, 0.031, -0.017, 0.002, -0.004, 0.011, 10.23, 0.052, -0.006, 0.01, -0.02, 0.003, 0.41])
@@ -116,7 +116,7 @@ def test_lockstep_reproduces_the_in_process_flight_bit_for_bit():
 
 
 def _policy():
-    from training.policy import PolicyRuntime
+    from jsbsim_env.control.policy import PolicyRuntime
 
     return PolicyRuntime(None, backend="onnx")
 

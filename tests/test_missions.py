@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from jsbsim_env.controllers.base import AttitudeController
-from jsbsim_env.controllers.pid import PIDAttitudeController
+from jsbsim_env.control.base import AttitudeController
+from jsbsim_env.control.pid import PIDAttitudeController
 from jsbsim_env.missions import MissionResult, RouteConfig, fly_route
 
 
@@ -71,7 +71,7 @@ def test_bad_route_settings():
 
 def test_the_rectangle_grows_with_the_turn_radius_above_10_km():
     from jsbsim_env.missions import standard_density_kg_m3
-    from jsbsim_env.sim import Simulation
+    from jsbsim_env.sim.simulation import Simulation
 
     sim = Simulation()
     for altitude_m in (0.0, 1_000.0, 10_000.0, 11_000.0, 15_000.0, 20_000.0):
@@ -86,7 +86,7 @@ def test_the_rectangle_grows_with_the_turn_radius_above_10_km():
     given = ((0.0, 0.0), (500.0, 0.0))  # waypoints given are flown as given
     np.testing.assert_array_equal(RouteConfig(altitude_m=20_000.0, waypoints_ne_m=given).waypoints(), given)
     # The steady-state window starts later after each corner, as the turns there take longer.
-    from training.report import steady_mask
+    from training.evaluation.report import steady_mask
 
     t = np.arange(0.0, 400.0, 1.0)
     arrays = {"time_s": t, "leg": (t >= 200.0).astype(float)}
@@ -118,7 +118,7 @@ def test_mission_metrics_on_known_signals():
     assert half["rmse_roll_deg"] == pytest.approx(0.5)
     # The flight lasted 40 s: a window after it is an error for metrics, and NaN for the report,
     # which must describe a controller that crashed rather than stop at it.
-    from training.report import window_metrics
+    from training.evaluation.report import window_metrics
 
     result = MissionResult(RouteConfig(), arrays, "roll limit")
     with pytest.raises(ValueError, match="no samples"):
@@ -137,7 +137,7 @@ def test_mission_metrics_on_known_signals():
 def test_pid_on_the_policy_evaluation_suite():
     """The evaluation suite flies any controller of the shared interface: the PID follows every
     doublet step at 5,000 m closely and flies disturbed training-style episodes to the end."""
-    from training.suite import doublet_runs, evaluate
+    from training.evaluation.suite import doublet_runs, evaluate
 
     doublets = doublet_runs(PIDAttitudeController(), altitudes_m=(5000.0,))["5000m"]
     assert not doublets["ended_early"]

@@ -10,8 +10,8 @@ from pathlib import Path
 import pytest
 
 import aircraft
-from jsbsim_env.model_check import COEFFICIENT_TERMS, SCALED_TERMS
-from jsbsim_env.sim import ModelError, Simulation
+from jsbsim_env.sim.model_check import COEFFICIENT_TERMS, SCALED_TERMS
+from jsbsim_env.sim.simulation import ModelError, Simulation
 
 # Any term will do; taken from the list so that the test follows the generator's names.
 TERM = COEFFICIENT_TERMS[-1]

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 import torch
 
-from jsbsim_env.controllers.goal_trim import GoalTrim
-from jsbsim_env.task import (
+from jsbsim_env.control.goal_trim import GoalTrim
+from jsbsim_env.task.attitude import (
     OBS_OFFSET,
     OBS_SCALE,
     OBS_SIZE,
@@ -21,7 +21,7 @@ from jsbsim_env.task import (
 )
 from training.checkpoint import atomic_save, checked_load
 from training.config import TrainConfig
-from training.policy import (
+from jsbsim_env.control.policy import (
     PolicyFileError,
     PolicyRuntime,
     export_onnx,
@@ -242,7 +242,7 @@ def test_broken_policy_file_gives_a_clear_error(tmp_path):
 
 
 def test_missing_shipped_controller_is_a_clear_error(monkeypatch, tmp_path):
-    from training import policy
+    from jsbsim_env.control import policy
 
     monkeypatch.setattr(policy, "shipped_policy_path", lambda: tmp_path / "absent.pt")
     with pytest.raises(PolicyFileError, match="no trained controller ships"):
@@ -265,7 +265,7 @@ def test_ship_policy_needs_the_runs_first_command_and_commit(policy_file, tmp_pa
     run.mkdir()
     shutil.copyfile(path, run / "best_policy.pt")
     script = Path(__file__).resolve().parents[1] / "scripts" / "ship_policy.py"
-    shipped = [p.stat().st_mtime_ns for p in sorted(Path(script).parents[1].glob("training/shipped/*"))]
+    shipped = [p.stat().st_mtime_ns for p in sorted(Path(script).parents[1].glob("jsbsim_env/control/shipped/*"))]
     resumed_only = json.dumps({"command": "python scripts/train_torchrl.py --resume r", "commit": "abc",
                                "dirty": False, "frames_at_start": 5000})
     for sessions in ("", resumed_only + "\n"):
@@ -278,7 +278,7 @@ def test_ship_policy_needs_the_runs_first_command_and_commit(policy_file, tmp_pa
     done = subprocess.run([sys.executable, str(script), str(run)], capture_output=True, text=True, check=False,
                           timeout=120)
     assert done.returncode == 2 and "cores the run trained on are unknown: give --cores" in done.stderr
-    assert [p.stat().st_mtime_ns for p in sorted(Path(script).parents[1].glob("training/shipped/*"))] == shipped
+    assert [p.stat().st_mtime_ns for p in sorted(Path(script).parents[1].glob("jsbsim_env/control/shipped/*"))] == shipped
 
 
 @pytest.mark.parametrize(("decay", "trim", "observe", "in_surfaces", "rudder_s"),

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 import torch
 
-from jsbsim_env.core import N_STATE
-from jsbsim_env.task import (
+from jsbsim_env.sim.core import N_STATE
+from jsbsim_env.task.attitude import (
     ACHIEVED_INDEX,
     GOAL_HIGH,
     GOAL_LOW,
@@ -21,7 +21,7 @@ from jsbsim_env.task import (
     reward_from_achieved,
     reward_terms,
 )
-from jsbsim_env.torchrl_env import make_env
+from jsbsim_env.task.torchrl_env import make_env
 from training.relabel import relabel_goals
 
 

@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 import torch
 
-from jsbsim_env.task import ActionError
+from jsbsim_env.task.attitude import ActionError
 from training.checkpoint import CheckpointError, atomic_save, checked_load, load_checkpoint
 from training.config import TrainConfig
-from training.policy import PolicyFileError, PolicyRuntime, load_policy
+from jsbsim_env.control.policy import PolicyFileError, PolicyRuntime, load_policy
 from training.trainer import Trainer
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -117,7 +117,7 @@ def test_evaluate_refuses_zero_episodes(capsys):
 
 
 def test_evaluate_json_has_null_and_the_reason_where_a_metric_is_not_finite():
-    from jsbsim_env.metrics import json_ready
+    from jsbsim_env.task.metrics import json_ready
 
     nulls: dict[str, str] = {}
     out = json_ready({"doublets": {"500m": {"settling_time_90_s_roll": [2.8, math.nan]}}, "x": np.float64(1.5)},
@@ -193,7 +193,7 @@ def test_the_gymnasium_env_refuses_an_action_of_the_wrong_shape(shape):
 
 
 def test_the_torchrl_env_refuses_an_action_of_the_wrong_shape():
-    from jsbsim_env.torchrl_env import make_env
+    from jsbsim_env.task.torchrl_env import make_env
 
     env = make_env(2, seed=0)
     td = env.reset()

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import aircraft
-from jsbsim_env.runscripts import RUNS, generated_files
-from jsbsim_env.sim import FT_TO_M, Simulation
+from jsbsim_env.analysis.runscripts import RUNS, generated_files
+from jsbsim_env.sim.simulation import FT_TO_M, Simulation
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 

@@ -8,7 +8,7 @@ import pytest
 import torch
 from tensordict import TensorDict
 
-from jsbsim_env.task import ACTION_SIZE, OBS_SIZE
+from jsbsim_env.task.attitude import ACTION_SIZE, OBS_SIZE
 from training.networks import CriticNet, make_actor, make_critic
 from training.sac import RecurrentSAC, tanh_normal_sample
 from training.sac_reference import SACLossReference
@@ -184,7 +184,7 @@ def test_goal_aware_caps_leaves_goal_steps_and_goal_noise_out():
     """Goal-aware CAPS: a transition whose only change is a goal step costs no temporal penalty
     (the paper's CAPS charges it), the spatial noise spares the goal columns, and the update's
     penalty is the reference's on the same batch."""
-    from jsbsim_env.task import GOAL_COLUMNS
+    from jsbsim_env.task.attitude import GOAL_COLUMNS
     from training.caps import caps_losses, goal_held_windows, spatial_noise
 
     torch.manual_seed(8)

@@ -7,11 +7,11 @@ import math
 
 import numpy as np
 
-from jsbsim_env.controllers.pid import PIDAttitudeController
-from jsbsim_env.core import CoreConfig, FlightCore
-from jsbsim_env.task import EAS_INDEX, AttitudeTaskBatch, TaskConfig
-from training.policy import PolicyRuntime, load_policy, onnx_source_digest, policy_digest, shipped_policy_path
-from training.suite import EVAL_EPISODE_SEED, fly
+from jsbsim_env.control.pid import PIDAttitudeController
+from jsbsim_env.sim.core import CoreConfig, FlightCore
+from jsbsim_env.task.attitude import EAS_INDEX, AttitudeTaskBatch, TaskConfig
+from jsbsim_env.control.policy import PolicyRuntime, load_policy, onnx_source_digest, policy_digest, shipped_policy_path
+from training.evaluation.suite import EVAL_EPISODE_SEED, fly
 
 RANDOM_ACTIONS_RETURN = 0.13  # normalised return of uniformly random actions on these episodes
 

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from jsbsim_env.core import CoreConfig
-from training.sweep import (
+from jsbsim_env.sim.core import CoreConfig
+from training.evaluation.sweep import (
     AXES,
     AXIS_UNITS,
     SWEEP_EPISODE_SEED,
@@ -65,7 +65,7 @@ def test_each_axis_sets_what_it_names():
 
 
 def test_parameter_strength_zero_flies_the_nominal_aircraft():
-    from jsbsim_env.core import FlightCore
+    from jsbsim_env.sim.core import FlightCore
 
     core = FlightCore(condition_config({"parameter_strength": 0.0}).core)
     core.reset(SWEEP_EPISODE_SEED)
@@ -79,7 +79,7 @@ def test_parameter_strength_zero_flies_the_nominal_aircraft():
 
 
 def test_rows_have_the_tables_schema_and_do_not_depend_on_the_processes():
-    from training.sweep import Job
+    from training.evaluation.sweep import Job
 
     jobs = jobs_for(["pid"], grid({"delay_ms": [0.0, 300.0]}), episodes=2, chunk=1)
     one = run_local(jobs, workers=1)
@@ -123,7 +123,7 @@ def test_the_sweep_command_refuses_bad_input(tmp_path, capsys):
 
 
 def test_a_missing_ray_is_a_clear_message(monkeypatch):
-    from training.sweep import run_ray
+    from training.evaluation.sweep import run_ray
 
     monkeypatch.setitem(sys.modules, "ray", None)
     with pytest.raises(RuntimeError, match=r"pip install '.\[ray\]'"):

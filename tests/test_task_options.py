@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from jsbsim_env.task import AttitudeTaskBatch, TaskConfig
+from jsbsim_env.task.attitude import AttitudeTaskBatch, TaskConfig
 
 
 @pytest.mark.parametrize(("field", "value"), [("integral_trim", -0.1), ("integral_trim", 2.5), ("external_throttle", 1.5),
@@ -34,8 +34,8 @@ def test_external_throttle_flies_the_throttle_whatever_the_policy_commands():
 def test_speed_hold_episodes_are_speed_free_for_the_policy():
     """The EAS goal the policy sees is its measured EAS, the reward has no airspeed term, and the
     environment marks those steps for the learner (so relabelling leaves them alone)."""
-    from jsbsim_env.task import EAS_INDEX, OBS_OFFSET, OBS_SCALE
-    from jsbsim_env.torchrl_env import SolarUAVAttitudeEnv
+    from jsbsim_env.task.attitude import EAS_INDEX, OBS_OFFSET, OBS_SCALE
+    from jsbsim_env.task.torchrl_env import SolarUAVAttitudeEnv
 
     batch = AttitudeTaskBatch(1, TaskConfig(external_throttle=1.0))
     batch.reset_one(0, seed=5)
@@ -56,7 +56,7 @@ def test_speed_hold_episodes_are_speed_free_for_the_policy():
 
 def test_speed_hold_is_the_pid_airspeed_loop():
     """``throttle()`` (the speed hold) gives the PID's throttle, integrator and anti-windup included."""
-    from jsbsim_env.controllers.pid import PIDAttitudeController
+    from jsbsim_env.control.pid import PIDAttitudeController
 
     rng = np.random.default_rng(0)
     full, hold = PIDAttitudeController(), PIDAttitudeController()

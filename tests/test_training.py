@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 import torch
 
-from jsbsim_env.core import CoreConfig
-from jsbsim_env.task import TaskConfig
+from jsbsim_env.sim.core import CoreConfig
+from jsbsim_env.task.attitude import TaskConfig
 from training.checkpoint import CheckpointError, atomic_save, checked_load, load_checkpoint
 from training.config import TrainConfig
 from training.trainer import RunLockedError, Trainer, lr_factor

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from aircraft.design import aero_data
-from jsbsim_env.modes import classify, jsbsim_linearisation, linear_modes, linearise
-from jsbsim_env.sim import Simulation, TrimError
+from jsbsim_env.analysis.modes import classify, jsbsim_linearisation, linear_modes, linearise
+from jsbsim_env.sim.simulation import Simulation, TrimError
 
 SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
 ALTITUDES_M = (500.0, 1000.0, 5000.0, 10000.0, 15000.0, 20000.0)
@@ -82,7 +82,7 @@ def test_short_period_and_dutch_roll_are_stable_everywhere(envelope):
 
 def test_static_margin_measured_in_jsbsim_is_the_designed_one():
     """-dCm/dCL at fixed alpha-dot, from JSBSim's total forces and moments about the CG."""
-    from jsbsim_env import derivatives
+    from jsbsim_env.analysis import derivatives
 
     sim = Simulation()
     d = derivatives.measure(sim, 10000.0, 10.0)
@@ -176,7 +176,7 @@ def test_linearisation_agrees_with_jsbsim_fglinearization():
 
 
 def test_control_derivatives_have_the_sign_conventions_of_spec_section_1():
-    from jsbsim_env.modes import control_derivatives
+    from jsbsim_env.analysis.modes import control_derivatives
 
     sim = Simulation()
     trim = sim.trim(10000.0, 10.0)
@@ -186,7 +186,7 @@ def test_control_derivatives_have_the_sign_conventions_of_spec_section_1():
     assert b_long[3, 1] < 0 and b_lat[2, 0] < 0 and b_lat[3, 2] < 0 and b_long[0, 3] > 0
     # The aileron's roll acceleration per degree is its moment per degree over Ixx.
     ixx = np.asarray(sim.fdm.get_mass_balance().get_J())[0, 0] * 1.3558179483314
-    from jsbsim_env.effectiveness import effectiveness_at
+    from jsbsim_env.analysis.effectiveness import effectiveness_at
 
     moment = effectiveness_at(sim, 10000.0, 10.0)["aileron_moment_nm_per_deg"]
     assert b_lat[2, 0] == pytest.approx(moment / ixx, rel=0.05)

@@ -12,9 +12,9 @@ from scipy import signal
 from aircraft.design import aero_data
 from aircraft.design.analysis import _mac_quarter_chord, _trapezoid_area_m2
 from aircraft.design.geometry import AircraftGeometry
-from jsbsim_env import turbulence as turb
-from jsbsim_env.core import CoreConfig, FlightCore
-from jsbsim_env.sim import FT_TO_M, LBF_TO_N, M_TO_FT, Simulation
+from jsbsim_env.sim import turbulence as turb
+from jsbsim_env.sim.core import CoreConfig, FlightCore
+from jsbsim_env.sim.simulation import FT_TO_M, LBF_TO_N, M_TO_FT, Simulation
 
 SPAN_M = 35.0
 PSF_TO_PA = 47.880258888889

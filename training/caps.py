@@ -8,13 +8,6 @@ With per-action weights w (beyond the paper: ``CapsSettings.action_weights``), t
 are taken as w * (mu - mu'), so that one surface may be smoothed less than another; all ones is
 the paper's CAPS.
 
-Goal-aware CAPS (beyond the paper: ``CapsSettings.goal_aware``): the goals are commands, not
-measurements, so neither term should make the policy slow to follow them. The temporal term
-compares mu(s_t) with mu(s_t+1) where s_t+1 keeps s_t's goals (the goals of the newest frame only
-differ where a goal stepped between t and t+1), and the spatial noise leaves the goal columns
-alone. Without it, every goal step in the replay buffer is penalised as an action jump, and every
-spatial sample as goal sensitivity: both pull the gain from goal error to surface down.
-
 mu is the deterministic action (tanh of the Gaussian's mean). Observations are whole windows in
 the network's scaled units, so sigma_S is in those units too.
 """
@@ -26,7 +19,6 @@ import math
 import torch
 from tensordict import TensorDictBase
 
-from jsbsim_env.task import GOAL_COLUMNS
 from training.networks import ActorNet
 
 
@@ -58,37 +50,18 @@ def caps_penalties(mu: torch.Tensor, mu_next: torch.Tensor, mu_near: torch.Tenso
     return temporal, spatial
 
 
-def spatial_noise(obs: torch.Tensor, sigma_spatial: float, goal_aware: bool = False,
-                  generator: torch.Generator | None = None) -> torch.Tensor:
-    """Gaussian noise of std ``sigma_spatial`` shaped as the observation windows; with
-    ``goal_aware`` the goal columns get none."""
-    noise = torch.randn(obs.shape, generator=generator, device=obs.device, dtype=obs.dtype) * sigma_spatial
-    if goal_aware:
-        noise[..., GOAL_COLUMNS] = 0.0
-    return noise
-
-
-def goal_held_windows(obs: torch.Tensor, next_obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """The rows whose goals stepped between the newest frames of ``obs`` and ``next_obs`` windows
-    (batch, window, features), and those rows' next windows with the newest frame's goals set back
-    to the current ones: what the goal-aware temporal term compares mu(s_t) with."""
-    goal_now, goal_next = obs[:, -1, GOAL_COLUMNS], next_obs[:, -1, GOAL_COLUMNS]
-    rows = (goal_now != goal_next).any(dim=-1).nonzero().squeeze(-1)
-    held = next_obs[rows].clone()
-    held[:, -1, GOAL_COLUMNS] = goal_now[rows]
-    return rows, held
+def spatial_noise(obs: torch.Tensor, sigma_spatial: float, generator: torch.Generator | None = None) -> torch.Tensor:
+    """Gaussian noise of std ``sigma_spatial`` shaped as the observation windows."""
+    return torch.randn(obs.shape, generator=generator, device=obs.device, dtype=obs.dtype) * sigma_spatial
 
 
 def caps_losses(actor_net: ActorNet, batch: TensorDictBase, sigma_spatial: float,
-                generator: torch.Generator | None = None, weights: torch.Tensor | None = None,
-                goal_aware: bool = False) -> tuple[torch.Tensor, torch.Tensor]:
-    """Mean temporal and spatial smoothness penalties over a replay batch (goal-aware where asked)."""
+                generator: torch.Generator | None = None,
+                weights: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
+    """Mean temporal and spatial smoothness penalties over a replay batch."""
     obs = batch["observation"]
     next_obs = batch["next", "observation"]
-    if goal_aware:
-        rows, held = goal_held_windows(obs, next_obs)
-        next_obs = next_obs.index_copy(0, rows, held)
     # One forward pass for the three inputs.
-    noisy = obs + spatial_noise(obs, sigma_spatial, goal_aware, generator)
+    noisy = obs + spatial_noise(obs, sigma_spatial, generator)
     actions = deterministic_action(actor_net, torch.cat([obs, next_obs, noisy], dim=0))
     return caps_penalties(*actions.chunk(3, dim=0), weights=weights)

@@ -11,12 +11,9 @@ state actually reached puts those samples where the reward has a slope.
 
 For a relabelled sample the goal columns of every frame of both observation windows are
 replaced by the new goal (held over the window), and the reward is recomputed from the
-transition's ``achieved`` state (``task.reward_from_achieved``). Where the observation carries
-error integrals (``task.ErrorIntegrals``), they are moved to the new goal too, exactly: an
-integral is S - g W with S and W independent of the goal, so it changes by (g - g') W. Integral trims
-(``task.TRIM_SIZE``) are left as they are: they are part of the aircraft's state, though under the
-new goal they would have been integrated differently (a small bias, slow as the trims are). Terminated
-transitions keep their goal: their reward is the episode's last and their state may not be finite.
+transition's ``achieved`` state (``task.reward_from_achieved``). Surface trims (which the policy
+does not observe) are part of the aircraft's state, though under the new goal they would have been
+integrated differently (a small bias, slow as the trims are). Terminated transitions keep their goal: their reward is the episode's last and their state may not be finite.
 So do speed-free transitions (``("next", "speed_free")``, where a speed hold flew the throttle): their
 EAS goal is the measured EAS and their reward has no airspeed term.
 """
@@ -26,45 +23,33 @@ from __future__ import annotations
 import torch
 from tensordict import TensorDictBase
 
-from jsbsim_env.task import (
-    GOAL_HIGH,
-    GOAL_LOW,
-    INTEGRAL_GAIN,
-    INTEGRAL_SIZE,
-    OBS_OFFSET,
-    OBS_SCALE,
-    PENALTY_SATURATION,
-    reward_from_achieved,
-)
+from jsbsim_env.control.observation import GOAL_COLUMNS as _GOAL_COLUMNS
+from jsbsim_env.control.observation import OBS_OFFSET, OBS_SCALE
+from jsbsim_env.task.attitude import GOAL_HIGH, GOAL_LOW, PENALTY_SATURATION, reward_from_achieved
 
-# Observations and critics' states both end with the error integrals (where configured: roll,
-# pitch, V_eas, sideslip, then their weight) and the three goals; columns from the end.
-_GOAL_COLUMNS = slice(-3, None)
-_INTEGRAL_COLUMNS = slice(-3 - INTEGRAL_SIZE, -3 - INTEGRAL_SIZE + 3)  # those of the three goals
-_WEIGHT_COLUMN = -4
+# A relabelled goal lies within this many times each channel's saturation error of the state reached.
+RELABEL_SPREAD = 2.0
 _GOAL_OFFSET = torch.tensor(OBS_OFFSET[_GOAL_COLUMNS], dtype=torch.float32)
 _GOAL_SCALE = torch.tensor(OBS_SCALE[_GOAL_COLUMNS], dtype=torch.float32)
 _GOAL_LOW = torch.tensor(GOAL_LOW, dtype=torch.float32)
 _GOAL_HIGH = torch.tensor(GOAL_HIGH, dtype=torch.float32)
 _SATURATION = torch.tensor(PENALTY_SATURATION, dtype=torch.float32)
-_GOAL_KEYS = ("observation", ("next", "observation"), "state", ("next", "state"))
+_GOAL_KEYS = ("observation", ("next", "observation"))
 
 
-def relabel_goals(batch: TensorDictBase, fraction: float, spread: float, generator: torch.Generator | None = None,
-                  error_integrals: bool = False, sideslip_weight: float = 1.0,
+def relabel_goals(batch: TensorDictBase, fraction: float, spread: float = RELABEL_SPREAD,
+                  generator: torch.Generator | None = None, sideslip_weight: float = 1.0,
                   penalty_tail: float = 0.0, roll_weight: float = 1.0, pitch_weight: float = 1.0) -> TensorDictBase:
     """A copy of ``batch`` with goals and rewards of a random ``fraction`` of its samples relabelled.
 
     Args:
         batch: replay samples with ``observation`` and ``("next", "observation")`` windows
             (B, window, observation size), ``("next", "achieved")`` (B, 4), ``("next", "reward")``
-            (B, 1) and ``("next", "terminated")`` (B, 1); and the critics' ``state`` (B, size) and
-            its next where the critics read it.
+            (B, 1) and ``("next", "terminated")`` (B, 1).
         fraction: share of the samples to relabel, in [0, 1].
         spread: new goal = achieved state + an offset drawn uniformly within +- ``spread`` times
             each channel's saturation error, clipped to the goal ranges.
         generator: random stream for the choice and the offsets.
-        error_integrals: the observations (and states) carry error integrals to move as well.
         sideslip_weight, penalty_tail, roll_weight, pitch_weight: the training reward's (``task.TaskConfig``).
     """
     if not 0.0 <= fraction <= 1.0:
@@ -86,17 +71,9 @@ def relabel_goals(batch: TensorDictBase, fraction: float, spread: float, generat
                          _GOAL_HIGH.to(device))
     scaled = ((goal - _GOAL_OFFSET.to(device)) / _GOAL_SCALE.to(device)).unsqueeze(-2)
     out = batch.clone()
-    keys = [key for key in _GOAL_KEYS if key in out.keys(include_nested=True)]
-    for key in keys:
+    for key in _GOAL_KEYS:
         values = out[key]
-        new_goal = scaled.to(values.dtype)
-        if values.dim() == 2:  # a state: one row, no window
-            new_goal = new_goal.squeeze(-2)
-        if error_integrals:
-            rows = values[index]
-            shift = (rows[..., _GOAL_COLUMNS] - new_goal) * rows[..., _WEIGHT_COLUMN, None]
-            values[index, ..., _INTEGRAL_COLUMNS] = rows[..., _INTEGRAL_COLUMNS] + INTEGRAL_GAIN * shift
-        values[index, ..., _GOAL_COLUMNS] = new_goal
+        values[index, ..., _GOAL_COLUMNS] = scaled.to(values.dtype)
     reward = reward_from_achieved(achieved, goal, sideslip_weight, penalty_tail, roll_weight, pitch_weight)
     out["next", "reward"][index] = reward.unsqueeze(-1).to(out["next", "reward"].dtype)
     return out

@@ -29,9 +29,9 @@ import torch.nn.functional as F
 from tensordict import TensorDictBase
 from torch import nn
 
-from jsbsim_env.task import ACTION_SIZE
-from training.caps import caps_penalties, check_action_weights, goal_held_windows, spatial_noise
-from training.networks import ActorNet, CriticNet, StateCriticNet
+from jsbsim_env.task.attitude import ACTION_SIZE
+from training.caps import caps_penalties, check_action_weights, spatial_noise
+from training.networks import ActorNet, CriticNet
 
 LOG_2 = math.log(2.0)
 
@@ -56,17 +56,6 @@ def _head_without_weight_gradients(head: nn.Sequential, x: torch.Tensor) -> torc
     return x
 
 
-def _parameter_groups(module: nn.Module, recurrent_lr: float | None) -> list[dict]:
-    """Adam parameter groups of ``module``: one, or with ``recurrent_lr`` its LSTM layers apart at
-    that rate (the optimiser's state then has more groups, which a resumed run must match)."""
-    if recurrent_lr is None:
-        return [{"params": list(module.parameters())}]
-    lstm_ids = {id(p) for m in module.modules() if isinstance(m, nn.LSTM) for p in m.parameters()}
-    groups = [{"params": [p for p in module.parameters() if id(p) not in lstm_ids]},
-              {"params": [p for p in module.parameters() if id(p) in lstm_ids], "lr": recurrent_lr}]
-    return [g for g in groups if g["params"]]  # a critic without memory has no LSTM
-
-
 class RecurrentSAC(nn.Module):
     """The actor (shared with the collector's policy), twin critics, their targets and the temperature.
 
@@ -75,25 +64,15 @@ class RecurrentSAC(nn.Module):
         critics: the two online critics; their targets start as copies.
         alpha: the initial (or, with ``auto_alpha`` off, fixed) temperature.
         auto_alpha: tune the temperature towards ``target_entropy``.
-        critic_key: the batch entry the critics read: ``"observation"`` (the actor's window) or
-            ``"state"`` (the critics' state, ``StateCriticNet``).
         caps_action_weights: each action's weight in the CAPS differences (``training.caps``);
             None weighs all alike, as the paper.
-        recurrent_lr: Adam learning rate of the LSTM layers (None: ``lr``). RESeL (Luo et al. 2024)
-            trains a recurrent encoder slower than the layers after it, because a small change of
-            its weights moves every later step's features.
-        caps_goal_aware: goal-aware CAPS (``training.caps``): the temporal term holds the goals,
-            the spatial noise leaves them alone (False: the paper's CAPS).
     """
 
-    def __init__(self, actor_net: ActorNet, critics: list[CriticNet | StateCriticNet], gamma: float, tau: float,
+    def __init__(self, actor_net: ActorNet, critics: list[CriticNet], gamma: float, tau: float,
                  alpha: float, auto_alpha: bool, target_entropy: float, lr: float, caps_kappa_temporal: float,
                  caps_kappa_spatial: float, caps_sigma_spatial: float, caps_batch_size: int,
-                 critic_key: str = "observation", caps_action_weights: list[float] | None = None,
-                 recurrent_lr: float | None = None, caps_goal_aware: bool = False):
+                 caps_action_weights: list[float] | None = None):
         super().__init__()
-        self.caps_goal_aware = caps_goal_aware
-        self.critic_key = critic_key
         self.actor_net = actor_net
         self.critics = nn.ModuleList(critics)
         self.target_critics = copy.deepcopy(self.critics).requires_grad_(False)
@@ -108,10 +87,8 @@ class RecurrentSAC(nn.Module):
             self.register_buffer("caps_weights", torch.tensor(caps_action_weights, dtype=torch.float32))
         else:
             self.caps_weights = None
-        if recurrent_lr is not None and not (math.isfinite(recurrent_lr) and recurrent_lr > 0.0):
-            raise ValueError(f"recurrent_lr must be a positive learning rate, got {recurrent_lr}")
-        params = _parameter_groups(actor_net, recurrent_lr) + _parameter_groups(self.critics, recurrent_lr)
-        self._network_groups = len(params)  # the temperature's group, when tuned, comes after these
+        # One Adam group for the actor, one for the critics, and the temperature's where it is tuned.
+        params = [{"params": list(actor_net.parameters())}, {"params": list(self.critics.parameters())}]
         if auto_alpha:
             params.append({"params": [self.log_alpha]})
         # Adam's fused kernel steps every parameter in one call (CPU and CUDA in current torch).
@@ -119,19 +96,8 @@ class RecurrentSAC(nn.Module):
             self.optimizer = torch.optim.Adam(params, lr=lr, fused=True)
         except (RuntimeError, TypeError):
             self.optimizer = torch.optim.Adam(params, lr=lr, foreach=True)
-        # Each group's starting rate, kept apart from the optimiser: a loaded optimiser state
-        # replaces its groups' settings, and the schedule must scale the configured rates.
-        self._base_lrs = [group["lr"] for group in self.optimizer.param_groups]
         self._online = list(self.critics.parameters())
         self._target = list(self.target_critics.parameters())
-
-    def scale_learning_rates(self, factor: float) -> None:
-        """Set the actor's and critics' learning rates to ``factor`` times their configured values
-        (the temperature's is left alone, so that the entropy target is tracked as before)."""
-        if not (math.isfinite(factor) and factor > 0.0):
-            raise ValueError(f"learning-rate factor must be positive and finite, got {factor}")
-        for group, base in zip(self.optimizer.param_groups[:self._network_groups], self._base_lrs):
-            group["lr"] = base * factor
 
     def losses(self, batch: TensorDictBase) -> dict[str, torch.Tensor]:
         """Every loss term of one update, and what is logged (``loss_*``, ``caps_*``, ``alpha``, ``entropy``)."""
@@ -141,18 +107,12 @@ class RecurrentSAC(nn.Module):
         m = min(caps_n, n)
         alpha = self.log_alpha.exp()
 
-        # The actor, once with gradients: observations, the CAPS subset's next and noisy observations
-        # (and, goal-aware, the next windows whose goals stepped, with the goals held).
-        windows = [obs, next_obs[:m], obs[:m] + spatial_noise(obs[:m], sigma_s, self.caps_goal_aware)]
-        if self.caps_goal_aware:
-            held_rows, held = goal_held_windows(obs[:m], next_obs[:m])
-            windows.append(held)
+        # The actor, once with gradients: observations, the CAPS subset's next and noisy observations.
+        windows = [obs, next_obs[:m], obs[:m] + spatial_noise(obs[:m], sigma_s)]
         loc, scale = self.actor_net(torch.cat(windows, dim=0))
         loc_obs, scale_obs = loc[:n], scale[:n]
         action, log_prob = tanh_normal_sample(loc_obs, scale_obs)
         loc_next_caps = loc[n:n + m]
-        if self.caps_goal_aware:
-            loc_next_caps = loc_next_caps.index_copy(0, held_rows, loc[n + 2 * m:])
         caps_temporal, caps_spatial = caps_penalties(torch.tanh(loc[:m]), torch.tanh(loc_next_caps),
                                                      torch.tanh(loc[n + m:n + 2 * m]), self.caps_weights)
 
@@ -164,12 +124,12 @@ class RecurrentSAC(nn.Module):
             else:
                 next_loc, next_scale = loc[n:n + m].detach(), scale[n:n + m].detach()
             next_action, next_log_prob = tanh_normal_sample(next_loc, next_scale)
-            next_input = batch["next", self.critic_key]
+            next_input = batch["next", "observation"]
             next_q = torch.min(torch.stack([c(next_input, next_action) for c in self.target_critics]), dim=0).values
             not_done = 1.0 - batch["next", "terminated"].to(obs.dtype)
             target = batch["next", "reward"] + self.gamma * not_done * (next_q - alpha.detach() * next_log_prob[:, None])
 
-        features = [c.encoder(batch[self.critic_key]) for c in self.critics]
+        features = [c.encoder(batch["observation"]) for c in self.critics]
         q = [c.head(torch.cat([f, batch["action"]], dim=-1)) for c, f in zip(self.critics, features)]
         loss_qvalue = sum((qi - target).square() for qi in q).mean()
         q_pi = torch.min(torch.stack([_head_without_weight_gradients(c.head, torch.cat([f.detach(), action], dim=-1))

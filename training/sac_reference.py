@@ -18,10 +18,8 @@ class SACLossReference:
 
     def __init__(self, actor, critic, action_spec, gamma: float, tau: float, alpha: float, auto_alpha: bool,
                  target_entropy: float, lr: float, caps_kappa_temporal: float, caps_kappa_spatial: float,
-                 caps_sigma_spatial: float, caps_batch_size: int, caps_action_weights: list[float] | None = None,
-                 caps_goal_aware: bool = False):
+                 caps_sigma_spatial: float, caps_batch_size: int, caps_action_weights: list[float] | None = None):
         self.actor = actor
-        self.caps_goal_aware = caps_goal_aware
         self.caps_weights = None if caps_action_weights is None else torch.tensor(caps_action_weights)
         self.loss = SACLoss(actor, critic, num_qvalue_nets=2, loss_function="l2", alpha_init=alpha,
                             fixed_alpha=not auto_alpha, action_spec=action_spec, target_entropy=target_entropy,
@@ -39,7 +37,7 @@ class SACLossReference:
         kappa_t, kappa_s, sigma_s, caps_n = self.caps
         losses = self.loss(batch)
         temporal, spatial = caps_losses(self.actor.module[0].module, batch[: min(caps_n, batch.shape[0])], sigma_s,
-                                        weights=self.caps_weights, goal_aware=self.caps_goal_aware)
+                                        weights=self.caps_weights)
         total = losses["loss_qvalue"] + losses["loss_actor"] + kappa_t * temporal + kappa_s * spatial
         if len(self.optimisers) == 3:
             total = total + losses["loss_alpha"]

@@ -1,4 +1,4 @@
-"""Recurrent SAC with CAPS on the solar-UAV attitude environment (SPEC section 3).
+"""Recurrent SAC with CAPS on the solar-UAV attitude environment (the paper's Section 3).
 
 A run folder holds ``config.json``, ``progress.csv``, TensorBoard events (``tb/``), ``checkpoint.pt``
 (everything needed to resume: networks, targets, optimisers, replay buffer, counters, random
@@ -24,42 +24,30 @@ from torchrl.collectors import Collector
 from torchrl.data import LazyTensorStorage, TensorDictReplayBuffer
 from torchrl.envs.utils import ExplorationType, set_exploration_type, step_mdp
 
-from jsbsim_env.core import CoreConfig
-from jsbsim_env.task import TaskConfig
-from jsbsim_env.torchrl_env import make_env
+from jsbsim_env.sim.core import CoreConfig
+from jsbsim_env.task.attitude import TaskConfig
+from jsbsim_env.task.torchrl_env import make_env
+from jsbsim_env.task.versions import task_version
 from training.checkpoint import CheckpointError, atomic_save, config_fingerprint, load_checkpoint, save_checkpoint
 from training.config import TrainConfig
-from training.networks import StateCriticNet, make_actor, make_critic
-from training.policy import check_flight_integral_trim
+from training.networks import make_actor, make_critic
 from training.relabel import relabel_goals
 from training.runtime import check_threads
 from training.sac import RecurrentSAC
 
 STORED_KEYS = ("observation", "action", ("next", "observation"), ("next", "reward"), ("next", "done"),
                ("next", "terminated"), ("next", "achieved"))
-CRITIC_STATE_KEYS = ("state", ("next", "state"))  # stored too where the critics read the critics' state
+EVAL_MAX_STEPS = 500  # interactions per evaluation episode during training
 
 
-def stored_keys(config: TrainConfig) -> tuple:
+def stored_keys(task: TaskConfig) -> tuple:
     """What the replay buffer keeps of each transition."""
-    return (STORED_KEYS + (CRITIC_STATE_KEYS if config.network.critic == "state" else ())
-            + ((("next", "speed_free"),) if config.env.external_throttle > 0.0 else ()))
+    return STORED_KEYS + ((("next", "speed_free"),) if task.external_throttle > 0.0 else ())
 
 
 CSV_FIELDS = ("frames", "updates", "wall_s", "env_steps_per_s", "episodes", "episode_return", "episode_return_norm",
               "episode_length", "loss_actor", "loss_qvalue", "caps_temporal", "caps_spatial", "alpha", "entropy",
               "eval_return_norm", "eval_length", "eval_early_ends")
-
-
-def lr_factor(frames: int, first_update_frames: int, total_frames: int, end_fraction: float) -> float:
-    """Learning-rate factor at ``frames``: 1 until the first update, then falling linearly to
-    ``end_fraction`` at ``total_frames`` (held there beyond). A function of the frame count only,
-    so that a resumed run follows the schedule it started with (one resumed with a longer
-    ``total_frames`` stretches it from where it stands)."""
-    if frames <= first_update_frames:
-        return 1.0
-    progress = min(1.0, (frames - first_update_frames) / max(1, total_frames - first_update_frames))
-    return 1.0 + (end_fraction - 1.0) * progress
 
 
 def resume_fingerprint(config: TrainConfig) -> str:
@@ -93,8 +81,7 @@ class Trainer:
             raise ValueError(f"collector.total_frames ({c.collector.total_frames}) must exceed "
                              f"collector.init_random_frames ({c.collector.init_random_frames}): the run would "
                              "only take random steps and learn nothing")
-        if not (math.isfinite(c.optim.lr_end_fraction) and 0.0 < c.optim.lr_end_fraction <= 1.0):
-            raise ValueError(f"optim.lr_end_fraction must be in (0, 1], got {c.optim.lr_end_fraction}")
+        self.version = version = task_version(c.env.task)
         self.run_dir = Path(run_dir)
         if resume and not self.run_dir.is_dir():
             raise CheckpointError(f"no run folder to resume at {self.run_dir}")
@@ -105,49 +92,23 @@ class Trainer:
         check_threads(torch.get_num_threads())
         torch.manual_seed(c.seed)
         self.device = torch.device(c.device)
-        if len(c.env.delay_ms) != 2:
-            raise ValueError(f"env.delay_ms must be two numbers (low high), got {c.env.delay_ms}")
-        if c.env.flight_integral_trim:
-            try:
-                check_flight_integral_trim(c.env.flight_integral_trim, c.env.integral_trim, c.env.observe_trims,
-                                           c.env.rudder_trim_s, trained_as="this run")
-            except ValueError as err:
-                raise ValueError(f"env.flight_integral_trim {c.env.flight_integral_trim:g}: {err} "
-                                 "(env.flight_integral_trim 0 flies with the training one)") from None
-        # The run's own evaluation flies SPEC's disturbances (``eval_core``) whatever it trains in.
+        # Training episodes fly the version's disturbances; the run's own evaluation flies the
+        # paper's (``CoreConfig()``) whatever the version trains in.
         eval_core = CoreConfig() if c.env.disturbances else CoreConfig.ideal()
-        core = (dataclasses.replace(eval_core, turbulence_sigma_mps=c.env.turbulence_sigma_mps,
-                                    delay_s=(c.env.delay_ms[0] / 1000.0, c.env.delay_ms[1] / 1000.0))
-                if c.env.disturbances else eval_core)
-        self.task_config = TaskConfig(core=core, error_integral_decay=c.env.error_integral_decay,
-                                      integral_trim=c.env.integral_trim, observe_trims=c.env.observe_trims,
-                                      trims_in_surfaces=c.env.trims_in_surfaces, rudder_trim_s=c.env.rudder_trim_s,
-                                      sideslip_weight=c.env.sideslip_weight, roll_weight=c.env.roll_weight,
-                                      pitch_weight=c.env.pitch_weight,
-                                      penalty_tail=c.env.penalty_tail, external_throttle=c.env.external_throttle)
+        core = version.task.core if c.env.disturbances else eval_core
+        self.task_config = dataclasses.replace(version.task, core=core)
         self.eval_task_config = dataclasses.replace(self.task_config, core=eval_core)
-        self.env = make_env(c.env.num_envs, self.task_config, seed=c.seed, window=c.env.window,
-                            critic_state=c.network.critic == "state")
-        obs_size = self.task_config.observation_size
-        self.actor = make_actor(c.network.lstm_hidden, c.network.mlp_hidden, self.env.action_spec,
-                                c.network.initial_std, obs_size=obs_size).to(self.device)
-        if c.network.critic == "state":
-            critics = [StateCriticNet(self.task_config.critic_state_size, c.network.mlp_hidden).to(self.device)
-                       for _ in range(2)]
-        elif c.network.critic == "recurrent":
-            critics = [make_critic(c.network.lstm_hidden, c.network.mlp_hidden, obs_size=obs_size).module.to(self.device)
-                       for _ in range(2)]
-        else:
-            raise ValueError(f"network.critic must be 'recurrent' or 'state', got {c.network.critic!r}")
-        self.stored_keys = stored_keys(c)
+        self.window = version.flight_stack.window_steps
+        self.env = make_env(c.env.num_envs, self.task_config, seed=c.seed, window=self.window)
+        self.actor = make_actor(c.network.lstm_hidden, c.network.mlp_hidden, self.env.action_spec).to(self.device)
+        critics = [make_critic(c.network.lstm_hidden, c.network.mlp_hidden).module.to(self.device) for _ in range(2)]
+        self.stored_keys = stored_keys(self.task_config)
         self.sac = RecurrentSAC(
             self.actor.module[0].module, critics, gamma=c.optim.gamma, tau=c.optim.tau, alpha=c.optim.alpha,
             auto_alpha=c.optim.auto_alpha, target_entropy=c.optim.target_entropy, lr=c.optim.lr,
             caps_kappa_temporal=c.caps.kappa_temporal, caps_kappa_spatial=c.caps.kappa_spatial,
             caps_sigma_spatial=c.caps.sigma_spatial, caps_batch_size=c.caps.batch_size,
-            critic_key="state" if c.network.critic == "state" else "observation",
-            caps_action_weights=c.caps.action_weights, recurrent_lr=c.optim.recurrent_lr or None,
-            caps_goal_aware=c.caps.goal_aware)
+            caps_action_weights=c.caps.action_weights)
         self.buffer = TensorDictReplayBuffer(storage=LazyTensorStorage(c.buffer.capacity), batch_size=c.buffer.batch_size)
         self.counters = Counters()
         self.fingerprint = resume_fingerprint(c)
@@ -178,9 +139,8 @@ class Trainer:
 
     def _load(self) -> None:
         data = load_checkpoint(self.checkpoint_path, required=("config", "sac", "optimizer", "buffer", "counters"))
-        # Compare the run's settings as this version reads them: a setting added since the run
-        # started takes the value the run trained with (config.LEGACY_VALUES) on both sides,
-        # instead of making every older run unresumable.
+        # Compare the run's settings as this version reads them; a run of another version of the
+        # package (settings or a task version this one does not have) is refused, naming them.
         try:
             saved = resume_fingerprint(TrainConfig.from_dict(data["config"]))
         except (TypeError, ValueError) as err:
@@ -211,17 +171,13 @@ class Trainer:
         tmp.replace(path)
 
     def save_policy(self, path: Path, evaluation: dict) -> None:
-        """The deterministic policy and what it needs at run time, for ``training.policy``."""
+        """The deterministic policy and the control stack it flies with (the task version's), for
+        ``jsbsim_env.control.policy``."""
         atomic_save({
             "actor": self.actor.state_dict(),
             "network": self.config.network.__dict__,
-            "window": self.config.env.window,
-            "error_integral_decay": self.config.env.error_integral_decay,
-            "integral_trim": self.config.env.flown_integral_trim,
-            "observe_trims": self.config.env.observe_trims,
-            "trims_in_surfaces": self.config.env.trims_in_surfaces,
-            "rudder_trim_s": self.config.env.rudder_trim_s,
-            "goal_trim_s": self.config.env.goal_trim_s,
+            "task": self.version.env_id,
+            "stack": self.version.flight_stack.to_dict(),
             "frames": self.counters.frames,
             "seed": self.config.seed,
             "evaluation": evaluation,
@@ -230,13 +186,10 @@ class Trainer:
     # ------------------------------------------------------------------ training
     def _update(self, batch: TensorDictBase) -> None:
         c = self.config
-        batch = relabel_goals(batch.to(self.device), c.buffer.relabel_fraction, c.buffer.relabel_spread,
-                              error_integrals=c.env.error_integral_decay > 0.0,
-                              sideslip_weight=c.env.sideslip_weight, penalty_tail=c.env.penalty_tail,
-                              roll_weight=c.env.roll_weight, pitch_weight=c.env.pitch_weight)
-        if c.optim.lr_end_fraction != 1.0:  # a constant rate (the default) needs no setting per update
-            self.sac.scale_learning_rates(lr_factor(self.counters.frames, c.collector.init_random_frames,
-                                                    c.collector.total_frames, c.optim.lr_end_fraction))
+        task = self.task_config
+        batch = relabel_goals(batch.to(self.device), c.buffer.relabel_fraction,
+                              sideslip_weight=task.sideslip_weight, penalty_tail=task.penalty_tail,
+                              roll_weight=task.roll_weight, pitch_weight=task.pitch_weight)
         for key, value in self.sac.update(batch).items():
             self._losses.setdefault(key, []).append(value)
         self.counters.updates += 1
@@ -335,7 +288,7 @@ class Trainer:
         """Deterministic evaluation on the fixed seeded episode set; keeps the best policy."""
         c = self.config
         result = evaluate_policy(self.actor, self.eval_task_config, episodes=c.log.eval_episodes,
-                                 max_steps=c.log.eval_max_steps, window=c.env.window)
+                                 max_steps=EVAL_MAX_STEPS, window=self.window)
         if result["return_norm"] > self.counters.best_eval:
             self.counters.best_eval = result["return_norm"]
             self.save_policy(self.run_dir / "best_policy.pt", {**result, "frames": self.counters.frames})

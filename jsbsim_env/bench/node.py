@@ -158,8 +158,6 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--baud", type=int, default=115200, help="line rate, bit/s")
     parser.add_argument("--controller", default="policy", choices=("policy", "pid"))
     parser.add_argument("--policy", default=None, help="policy file (.pt); the shipped policy when omitted")
-    parser.add_argument("--integral-trim", type=float, default=0.0, metavar="FRACTION",
-                        help="the policy with integral trim at this fraction of the PID's integral gains; 0: alone")
     parser.add_argument("--rate-hz", type=float, default=25.0, help="control frame rate the controller assumes, Hz")
     parser.add_argument("--faults", default="", help="controller-side faults: stall_at=S,stall_s=D (flight time, s)")
     parser.add_argument("--stats", default=None, help="write the counters here (JSON) on exit")
@@ -173,9 +171,9 @@ def main(argv: list[str] | None = None) -> int:
     except (serial.SerialException, OSError) as exc:
         print(f"cannot open serial device {args.device}: {exc}", file=sys.stderr)
         return 2
-    from training.controllers import make_controller
+    from jsbsim_env.control.factory import make_controller
 
-    node = ControllerNode(port, make_controller(args.controller, args.policy, args.integral_trim), args.rate_hz,
+    node = ControllerNode(port, make_controller(args.controller, args.policy), args.rate_hz,
                           Faults.parse(args.faults))
 
     def stop(signum, frame):

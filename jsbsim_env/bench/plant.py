@@ -35,8 +35,8 @@ import numpy as np
 from jsbsim_env.bench.link import EmulatedLine, Faults, open_pty
 from jsbsim_env.bench.node import percentiles_ms
 from jsbsim_env.bench.wire import PLANT_SYSTEM_ID, decode_command, encode_state, heartbeat, is_crc_error, new_link
-from jsbsim_env.controllers.pid import PIDAttitudeController
-from jsbsim_env.core import COMMAND_HIGH, COMMAND_LOW
+from jsbsim_env.control.pid import PIDAttitudeController
+from jsbsim_env.sim.core import COMMAND_HIGH, COMMAND_LOW
 from jsbsim_env.missions import MissionResult, RouteConfig, RouteFlight
 
 NETWORK, HOLD, PID = 0, 1, 2
@@ -91,7 +91,6 @@ class BenchConfig:
     mode: str = "realtime"  # or "lockstep"
     controller: str = "policy"  # or "pid"
     policy: str | None = None
-    integral_trim: float = 0.0  # the policy with integral trim at this fraction (controllers.integral_trim)
     duration_s: float = 60.0
     baud: int = 115_200
     faults: Faults = field(default_factory=Faults)
@@ -131,8 +130,6 @@ class _ControllerProcess:
                "--controller", cfg.controller, "--rate-hz", str(cfg.rate_hz), "--stats", str(stats_path)]
         if cfg.policy:
             cmd += ["--policy", str(cfg.policy)]
-        if cfg.integral_trim:
-            cmd += ["--integral-trim", str(cfg.integral_trim)]
         f = cfg.faults
         if f.stall_at_s is not None:
             cmd += ["--faults", f"stall_at={f.stall_at_s},stall_s={f.stall_s}"]

@@ -23,7 +23,7 @@ try:
 except ImportError as exc:  # pragma: no cover - exercised only without the extra
     raise ImportError("the loop bench needs pymavlink and pyserial: pip install '.[bench]'") from exc
 
-from jsbsim_env.controllers.base import AttitudeController
+from jsbsim_env.control.base import AttitudeController
 
 # Command scaling of HIL_ACTUATOR_CONTROLS.controls: surfaces in deg divided by these, throttle as is.
 SURFACE_FULL_SCALE_DEG = (30.0, 30.0, 20.0)

@@ -1,0 +1,266 @@
+"""The trained controller at run time: loading, ONNX export and a runtime without TorchRL.
+
+``PolicyRuntime`` is what flies the aircraft after training (evaluation, the loop bench): it keeps
+the 8-step observation window exactly as training's ``CatFrames`` does (a new episode's window is
+its first observation repeated), scales observations and maps actions to actuator commands, and
+runs either the PyTorch network or its ONNX export (onnxruntime, one thread).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+import tempfile
+import warnings
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+import torch
+from torch import nn
+
+from jsbsim_env.control.checked_io import checked_load, non_finite_entries
+from jsbsim_env.control.network import ActorNet
+from jsbsim_env.control.observation import OBS_SIZE, ActionError
+from jsbsim_env.control.stack import ControlStack, StackSettings
+
+SHIPPED_POLICY = "solar_uav_policy.pt"  # in the training package, with its ONNX export beside it
+ONNX_SOURCE_KEY = "policy_sha256"  # ONNX metadata: digest of the policy file the model was exported from
+
+
+class PolicyFileError(RuntimeError):
+    """A policy file that cannot be read or lacks what the runtime needs."""
+
+
+def shipped_policy_path() -> Path:
+    """The controller that ships with the package."""
+    return Path(str(resources.files("jsbsim_env.control") / "shipped" / SHIPPED_POLICY))
+
+
+class DeterministicActor(nn.Module):
+    """Observation window (..., window, observation size) -> action in [-1, 1]^4: tanh of the Gaussian's mean."""
+
+    def __init__(self, net: ActorNet):
+        super().__init__()
+        self.net = net
+
+    def forward(self, window: torch.Tensor) -> torch.Tensor:
+        loc, _ = self.net(window)
+        return torch.tanh(loc)
+
+
+# Settings of policy files written before the control stack was recorded as one entry, and the only
+# values this version flies: the observation and trims the stack has (hidden trims taken off the
+# observed surfaces, no error integrals, no rudder trim).
+_FLAT_SETTINGS_FLOWN = {"error_integral_decay": 0.0, "observe_trims": False, "trims_in_surfaces": False,
+                        "rudder_trim_s": 0.0}
+
+
+def stack_settings_of(data: dict, path: Path) -> StackSettings:
+    """The control-stack settings a policy file records: its ``stack`` entry, or, in a file written
+    before that entry, the flat settings it was saved with (refused, naming them, where they
+    describe stages this version no longer has)."""
+    if "stack" in data:
+        return StackSettings.from_dict(data["stack"])
+    trim = float(data.get("integral_trim", 0.0))
+    if trim > 0.0:
+        gone = {k: data.get(k) for k, v in _FLAT_SETTINGS_FLOWN.items() if k in data and data[k] != v}
+    else:
+        gone = {k: data[k] for k in ("error_integral_decay", "rudder_trim_s") if data.get(k)}
+    if gone or (trim > 0.0 and set(_FLAT_SETTINGS_FLOWN) - set(data) - {"error_integral_decay", "rudder_trim_s"}):
+        raise PolicyFileError(f"{path} was trained with settings this version of the package no longer has "
+                              f"({', '.join(f'{k}={v}' for k, v in gone.items()) or 'trims in the observation'}); "
+                              "fly it with the version it was trained with")
+    return StackSettings(window_steps=int(data.get("window", 8)),
+                         goal_trim_time_constant_s=float(data.get("goal_trim_s", 0.0)), surface_trim_gain=trim)
+
+
+def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
+    """The deterministic actor and the metadata saved with it (``Trainer.save_policy``); the
+    metadata's ``stack`` is the ``StackSettings`` it flies with."""
+    path = Path(path)
+    if not path.is_file():
+        raise PolicyFileError(f"no policy file at {path}")
+    try:
+        data = checked_load(path)
+    except Exception as err:  # a damaged file, or one that is not a policy file at all
+        raise PolicyFileError(f"{path} is not a usable policy file: {err}") from err
+    if not isinstance(data, dict) or "actor" not in data or "network" not in data:
+        raise PolicyFileError(f"{path} is not a policy file of this package (no actor network in it)")
+    try:
+        bad = non_finite_entries(data["actor"])
+        if bad:
+            raise PolicyFileError(f"{path} holds NaN or infinite weights ({', '.join(bad[:3])}); it cannot fly")
+        try:
+            stack = stack_settings_of(data, path)
+        except ValueError as err:
+            raise PolicyFileError(f"{path}: {err}") from err
+        prefix = "module.0.module."
+        state = {k[len(prefix):]: v for k, v in data["actor"].items() if k.startswith(prefix)}
+        inputs = state["encoder.lstm.weight_ih_l0"].shape[1]
+        if inputs != OBS_SIZE:
+            raise PolicyFileError(f"{path} was trained on observations of {inputs} values, and this version has "
+                                  f"{OBS_SIZE}; train a new policy")
+        net = ActorNet(data["network"]["lstm_hidden"], data["network"]["mlp_hidden"], obs_size=inputs,
+                       initial_std=data["network"].get("initial_std", 1.0))
+        net.load_state_dict(state)
+    except PolicyFileError:
+        raise
+    except Exception as err:  # missing keys and shape mismatches all mean the same here
+        raise PolicyFileError(f"{path} is not a usable policy file: {err}") from err
+    actor = DeterministicActor(net).eval()
+    meta = {k: v for k, v in data.items() if k != "actor"}
+    meta["stack"] = stack
+    return actor, meta
+
+
+def policy_digest(path: Path | str) -> str:
+    """SHA-256 of a policy file, stored in its ONNX export to tell a stale export from a current one."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def onnx_source_digest(path: Path | str) -> str | None:
+    """The policy digest an ONNX export was made from (None: no file, or no digest in it)."""
+    import onnx
+
+    path = Path(path)
+    if not path.exists():
+        return None
+    model = onnx.load(str(path), load_external_data=False)
+    return {p.key: p.value for p in model.metadata_props}.get(ONNX_SOURCE_KEY)
+
+
+def export_onnx(actor: DeterministicActor, path: Path | str, window: int = 8, source_digest: str | None = None) -> Path:
+    """Write the deterministic actor as ONNX (batch of one window, fixed shape), atomically, with
+    ``source_digest`` (``policy_digest`` of its policy file) in the model's metadata."""
+    import onnx
+
+    path = Path(path)
+    example = torch.zeros(1, window, actor.net.encoder.lstm.input_size)
+    handle, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
+    os.close(handle)
+    try:
+        with warnings.catch_warnings():
+            # The TorchScript exporter is chosen on purpose (the torch.export one needs onnxscript),
+            # and its tracer's notes on the LSTM's shape checks and batch size hold for this one
+            # fixed input shape (one window), which is all the export serves.
+            warnings.filterwarnings("ignore", category=DeprecationWarning)
+            warnings.filterwarnings("ignore", category=torch.jit.TracerWarning)
+            warnings.filterwarnings("ignore", message="Exporting a model to ONNX with a batch_size other than 1")
+            torch.onnx.export(actor, (example,), tmp, input_names=["window"], output_names=["action"],
+                              dynamo=False, opset_version=17)
+        if source_digest is not None:
+            model = onnx.load(tmp)
+            model.metadata_props.add(key=ONNX_SOURCE_KEY, value=source_digest)
+            onnx.save(model, tmp)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    return path
+
+
+class PolicyRuntime:
+    """Keeps the observation window and turns measurements into actuator commands.
+
+    Args:
+        policy_path: a policy file (``load_policy``); the shipped one by default.
+        backend: ``"onnx"`` (onnxruntime, the ``.onnx`` file beside the policy, exported again
+            if it is missing or was made from another policy file) or ``"torch"``.
+    """
+
+    def __init__(self, policy_path: Path | str | None = None, backend: str = "onnx"):
+        path = Path(policy_path) if policy_path is not None else shipped_policy_path()
+        if policy_path is None and not path.exists():
+            raise PolicyFileError("no trained controller ships with this version of the package; pass a policy file "
+                                  "(for example runs/<name>/best_policy.pt)")
+        self.actor, self.meta = load_policy(path)
+        self.stack = ControlStack(self.meta["stack"])
+        self.window = self.stack.settings.window_steps
+        self.observation_size = OBS_SIZE
+        self.backend = backend
+        if backend == "onnx":
+            import onnxruntime as ort
+
+            onnx_path = self._current_onnx(path)
+            options = ort.SessionOptions()
+            options.intra_op_num_threads = 1
+            options.inter_op_num_threads = 1
+            self._session = ort.InferenceSession(str(onnx_path), options, providers=["CPUExecutionProvider"])
+        elif backend != "torch":
+            raise ValueError(f"backend must be 'onnx' or 'torch', got {backend!r}")
+
+    def _current_onnx(self, path: Path) -> Path:
+        """The ONNX export of the policy file at ``path``: the one beside it when it was made from
+        this very file (a training run rewrites its best policy, so an older export must not be
+        reused), else a fresh export in a temporary folder that lives as long as the runtime:
+        nothing is written beside the user's files (``scripts/ship_policy.py`` writes the export
+        that ships)."""
+        digest = policy_digest(path)
+        onnx_path = path.with_suffix(".onnx")
+        if onnx_source_digest(onnx_path) == digest:
+            return onnx_path
+        self._export_dir = tempfile.TemporaryDirectory()
+        return export_onnx(self.actor, Path(self._export_dir.name) / onnx_path.name, self.window, digest)
+
+    def reset(self) -> None:
+        """A new flight: the window, the last action and the trims start afresh."""
+        self.stack.reset()
+
+    def push(self, observation: np.ndarray) -> np.ndarray:
+        """Add one scaled observation; returns the window (window, observation size), oldest first."""
+        return self.stack.window.push(self._as_frame(observation)).copy()
+
+    def action(self, window: np.ndarray) -> np.ndarray:
+        """Action in [-1, 1]^4 for one window."""
+        x = np.asarray(window, dtype=np.float32)[None]
+        if self.backend == "onnx":
+            return self._session.run(None, {"window": x})[0][0]
+        with torch.no_grad():
+            return self.actor(torch.from_numpy(x))[0].numpy()
+
+    def act(self, measurement: np.ndarray, goal: np.ndarray, dt_s: float | None = None) -> np.ndarray:
+        """Actuator command (aileron, elevator, rudder in deg, throttle) for a measured state
+        (``core.STATE_NAMES``) and goal (roll, pitch in rad, EAS in m/s); ``dt_s``, the control
+        interval, is needed by a policy that flies with trims. A measurement or goal that is not
+        finite is refused (``ValueError``): the network would map it to some finite command."""
+        # On plain floats throughout: numpy's per-call overhead would cost more than the arithmetic.
+        m, asked = np.asarray(measurement, dtype=float).tolist(), np.asarray(goal, dtype=float).tolist()
+        # One sum of plain floats is not finite if any value is not, at a fraction of np.isfinite's cost.
+        if not math.isfinite(sum(m) + sum(asked)):
+            raise ValueError(f"measurement {m} or goal {asked} is not finite")
+        if dt_s is None and self.stack.needs_interval:
+            raise ValueError("this policy flies with integral or goal trim: give act() the control interval dt_s")
+        raw = self.action(self.stack.observe(m, asked, dt_s)).tolist()
+        action = [min(max(x, -1.0), 1.0) for x in raw]  # a NaN stays NaN
+        if not all(-1.0 <= x <= 1.0 for x in action):
+            self.reset()  # the window and trims hold this step already: start the next call afresh
+            raise ActionError(f"the policy's action {raw} is not finite (the runtime was reset)")
+        return np.array(self.stack.command(action, dt_s, m, asked))
+
+    def update(self, dt_s: float, measurement: np.ndarray, setpoint: np.ndarray) -> np.ndarray:
+        """``act`` under the shared attitude-controller interface (``jsbsim_env.control.base``)."""
+        return self.act(measurement, setpoint, dt_s)
+
+    def act_scaled(self, observation: np.ndarray) -> np.ndarray:
+        """Action in [-1, 1]^4 for an already scaled observation, as the environments give (the
+        environment adds any surface trims to the command)."""
+        return self.action(self.stack.window.push(self._as_frame(observation)))
+
+    def _as_frame(self, observation: np.ndarray) -> np.ndarray:
+        """One scaled observation as a window row (float32, ``observation_size`` values)."""
+        return np.asarray(observation, dtype=np.float32).reshape(self.observation_size)
+
+
+__all__ = [
+    "DeterministicActor",
+    "PolicyFileError",
+    "PolicyRuntime",
+    "export_onnx",
+    "load_policy",
+    "onnx_source_digest",
+    "policy_digest",
+    "shipped_policy_path",
+    "stack_settings_of",
+]

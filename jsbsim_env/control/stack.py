@@ -1,0 +1,119 @@
+"""The learned controller as a chain of stages, each with its parameters and its state:
+
+    goal asked --> [goal trim] --> goal given --+
+                                                |
+    measurement --> [surface trim: integrate, take its trims off the observed surfaces]
+                                                |
+                    [observation: scale, with the last action] --> [window: last N] --> network
+                                                                                          |
+    command <-- [surface trim: add trims, clip] <-- [action -> command] <-- action <------+
+
+``StackSettings`` holds the parameters, as a policy file records them; ``ControlStack`` runs the
+stages around a network for one aircraft (``jsbsim_env.control.policy.PolicyRuntime`` adds the
+network). The training task runs the same stage classes around the plant
+(``jsbsim_env.task.attitude``), so there is one implementation of each.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from jsbsim_env.control.observation import (
+    OBS_SIZE,
+    ObservationWindow,
+    action_list_to_command,
+    initial_last_action,
+    scale_row,
+)
+from jsbsim_env.control.trims import (
+    GoalTrim,
+    SurfaceTrim,
+    check_goal_trim_time_constant,
+    check_surface_trim_gain,
+)
+
+
+@dataclass(frozen=True)
+class StackSettings:
+    """Parameters of the stages around the network.
+
+    ``window_steps``: observations the network reads, the newest last (the paper: 8).
+    ``goal_trim_time_constant_s``: the goal trim's time constant; 0: no goal trim.
+    ``surface_trim_gain``: the surface trim's gains as a fraction of the PID's integral gains; 0: no surface trim.
+    """
+
+    window_steps: int = 8
+    goal_trim_time_constant_s: float = 0.0
+    surface_trim_gain: float = 0.0
+
+    def __post_init__(self):
+        if not isinstance(self.window_steps, int) or not 1 <= self.window_steps <= 64:
+            raise ValueError(f"window_steps must be a whole number in [1, 64], got {self.window_steps!r}")
+        check_goal_trim_time_constant(self.goal_trim_time_constant_s, "goal_trim_time_constant_s")
+        check_surface_trim_gain(self.surface_trim_gain, "surface_trim_gain")
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict) -> StackSettings:
+        unknown = set(data) - set(cls.__dataclass_fields__)
+        if unknown:
+            raise ValueError(f"unknown control-stack settings {sorted(unknown)}")
+        return cls(window_steps=int(data.get("window_steps", 8)),
+                   goal_trim_time_constant_s=float(data.get("goal_trim_time_constant_s", 0.0)),
+                   surface_trim_gain=float(data.get("surface_trim_gain", 0.0)))
+
+
+class ControlStack:
+    """The stages around the network for one aircraft (module docstring), on plain floats."""
+
+    def __init__(self, settings: StackSettings | None = None):
+        self.settings = s = settings or StackSettings()
+        self.goal_trim = GoalTrim(s.goal_trim_time_constant_s) if s.goal_trim_time_constant_s else None
+        self.surface_trim = SurfaceTrim(s.surface_trim_gain) if s.surface_trim_gain else None
+        self.window = ObservationWindow(s.window_steps, OBS_SIZE)
+        self.needs_interval = self.goal_trim is not None or self.surface_trim is not None
+        self.last_action: list[float] | None = None  # fed back into the next observation
+
+    def reset(self) -> None:
+        """A new flight: every stage's state back to its start."""
+        self.last_action = None
+        self.window.reset()
+        for stage in (self.goal_trim, self.surface_trim):
+            if stage is not None:
+                stage.reset()
+
+    def observe(self, measurement: list[float], asked: list[float], dt_s: float | None) -> np.ndarray:
+        """The stages before the network for one control step: the network's window (steps, 20),
+        valid until the next call. ``measurement`` in ``core.STATE_NAMES`` order, ``asked`` the goal
+        (roll, pitch rad, EAS m/s), both finite lists."""
+        given = self.goal_trim.goal(asked) if self.goal_trim is not None else asked
+        self._given = given
+        first = self.last_action is None
+        if first:
+            self.last_action = initial_last_action(measurement)
+        seen = measurement
+        if self.surface_trim is not None:
+            if not first:  # the trims start from zero with the flight, as in training
+                self.surface_trim.integrate(dt_s, measurement, given)
+            seen = self.surface_trim.remove_from(measurement)
+        row = scale_row(seen + self.last_action + given)
+        return self.window.push(np.array(row, dtype=np.float32))
+
+    def command(self, action: list[float], dt_s: float | None, measurement: list[float],
+                asked: list[float]) -> list[float]:
+        """The stages after the network: the command (aileron, elevator, rudder deg, throttle) for
+        an action in [-1, 1]^4; then this step's error against the goal asked moves the next goal."""
+        self.last_action = action
+        command = action_list_to_command(action)  # within the actuators' travel for actions in [-1, 1]
+        if self.surface_trim is not None:
+            command = self.surface_trim.apply(command)  # clips the trimmed surfaces to their travel
+        if self.goal_trim is not None:
+            self.goal_trim.integrate(dt_s, measurement, asked)
+        return command
+
+
+__all__ = ["ControlStack", "StackSettings"]

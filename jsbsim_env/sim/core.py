@@ -1,0 +1,451 @@
+"""The flight core: one aircraft in JSBSim with every disturbance, flown one control interval at a time.
+
+Every controller (the SAC policy, the PID baseline, the TECS/L1 missions) flies through this class,
+so all see the same delay, noise, turbulence, parameter sets and backlash. It knows nothing about
+goals or rewards (``jsbsim_env.task.attitude``); it takes actuator commands and returns measurements.
+
+Timing, per episode (SPEC section 3):
+
+* the control interval is drawn from ``control_interval_s`` and then fixed; control instant k is
+  at k * interval exactly, and the simulation (fixed rate ``sim_rate_hz``, because JSBSim's
+  actuator filters are discretised for the rate they were loaded with) runs to the step nearest it;
+* a command given at control instant k reaches the actuators ``delay`` later, at the first
+  simulation step at or after that time, not at a whole control step;
+* the measurement returned at instant k is the state at k plus Ornstein-Uhlenbeck noise.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections import deque
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from jsbsim_env.sim import disturbances as dist
+from jsbsim_env.sim import turbulence as turb
+from jsbsim_env.sim.model_check import SCALED_TERMS
+from jsbsim_env.sim.simulation import (
+    CONTROL_INPUTS,
+    EAS_RANGE_MPS,
+    FT_TO_M,
+    M_TO_FT,
+    RHO0_KG_M3,
+    RHO0_SLUG_FT3,
+    SURFACE_LIMITS_DEG,
+    Simulation,
+)
+from jsbsim_env.sim.trim_table import TrimTable
+
+# The measured state (SPEC Eq. 18) in SI units: angles in rad, rates in rad/s, the three
+# surfaces as positions in rad, the throttle as the rotor-speed reference over the full-throttle speed (0..1).
+STATE_NAMES = ("altitude_m", "roll_rad", "pitch_rad", "p_radps", "q_radps", "r_radps", "airspeed_eas_mps",
+               "alpha_rad", "beta_rad", "aileron_rad", "elevator_rad", "rudder_rad", "throttle")
+N_STATE = len(STATE_NAMES)
+# SPEC Table 3: OU noise sigma per state element (same order).
+NOISE_SIGMA = np.array([0.0, 1e-3, 1e-3, 1e-3, 1e-3, 1e-3, 0.01, 1e-3, 1e-3, 0.0, 0.0, 0.0, 0.0])
+# Command order and limits (SPEC Table 2): aileron, elevator, rudder in degrees, throttle 0..1.
+COMMAND_LOW = np.array([-SURFACE_LIMITS_DEG["aileron"], -SURFACE_LIMITS_DEG["elevator"], -SURFACE_LIMITS_DEG["rudder"],
+                        0.0])
+COMMAND_HIGH = -COMMAND_LOW + np.array([0.0, 0.0, 0.0, 1.0])
+DEG_TO_RAD = math.pi / 180.0
+EARTH_RADIUS_M = 6_371_000.0  # mean radius: local north/east over a route of tens of km
+
+
+@dataclass(frozen=True)
+class Envelope:
+    """Where an episode ends early (a documented flight envelope; SPEC section 1 and beyond)."""
+
+    max_abs_roll_deg: float = 60.0
+    max_abs_pitch_deg: float = 45.0
+    alpha_range_deg: tuple[float, float] = (-20.0, 25.0)
+    eas_range_mps: tuple[float, float] = (4.0, 25.0)
+    # Lower bound: height above the terrain (below it, a ground strike). The terrain lies at
+    # sim.TERRAIN_ELEVATION_M, 100 m below sea level, so an episode may start at the envelope's
+    # floor (0 m) and ends 50 m below it. Upper bound: altitude above sea level.
+    altitude_range_m: tuple[float, float] = (50.0, 22000.0)
+
+
+@dataclass(frozen=True)
+class CoreConfig:
+    """Disturbances and episode start. Defaults are SPEC's training setting (all disturbances on),
+    but for the clip of the turbulence rates (``turbulence_clip``)."""
+
+    sim_rate_hz: float = 120.0
+    control_interval_s: tuple[float, float] = (0.040, 0.060)
+    delay_s: tuple[float, float] = (0.080, 0.120)
+    sensor_noise: bool = True
+    noise_reversion_per_s: float = 0.0  # "mean-reversion rate 0 (as printed)"
+    parameters: str = dist.RANDOMISED  # Table 4 draw, or a fixed set: "nominal", "positive", "negative"
+    turbulence: bool = True
+    # "paper": turbulence_sigma_mps on each axis at every altitude (SPEC); or a MIL-F-8785C
+    # severity, "light", "moderate" or "severe", whose intensity falls with altitude.
+    turbulence_intensity: str = turb.PAPER
+    turbulence_sigma_mps: float = 0.5
+    # "4sigma": each wind and rate channel clipped at 4 of its standard deviations, as rarely as
+    # the paper's +-2 m/s wind clip at 0.5 m/s; "paper": +-2 m/s and +-0.3 deg/s, which holds the
+    # rates at the clip 15-36 % of the time.
+    turbulence_clip: str = "4sigma"
+    backlash_deg: float = 0.0
+    servo_rate_limit_degps: float = 100.0  # every surface servo (SPEC section 1)
+    noise_scale: float = 1.0  # multiplies every SPEC Table 3 sigma (robustness sweeps)
+    parameter_strength: float = 1.0  # multiplies each Table 4 draw's distance from 1 (0: nominal aircraft)
+    altitude_range_m: tuple[float, float] = (500.0, 20000.0)
+    eas_range_mps: tuple[float, float] = EAS_RANGE_MPS
+    # Start perturbation about the trim: uniform within +- these.
+    perturb_attitude_deg: float = 5.0
+    perturb_rate_degps: float = 2.0
+    perturb_eas_mps: float = 1.0
+    max_steps: int = 500  # turbulence is generated for this many control intervals
+    envelope: Envelope = field(default_factory=Envelope)
+
+    def __post_init__(self):
+        if not (self.noise_scale >= 0.0 and self.parameter_strength >= 0.0):
+            raise ValueError(f"noise_scale and parameter_strength must be >= 0, got {self.noise_scale} and "
+                             f"{self.parameter_strength}")
+        if self.turbulence_intensity != turb.PAPER and self.turbulence_intensity not in turb.SEVERITIES:
+            raise ValueError(f"turbulence_intensity {self.turbulence_intensity!r}: use {turb.PAPER!r} or one of "
+                             f"{sorted(turb.SEVERITIES)}")
+        if self.turbulence_clip not in turb.CLIPS:
+            raise ValueError(f"turbulence_clip {self.turbulence_clip!r}: use one of {turb.CLIPS}")
+        for name in ("delay_s", "control_interval_s"):
+            low, high = getattr(self, name)
+            if not (0.0 <= low <= high < math.inf):  # NaN fails too
+                raise ValueError(f"{name} must be a finite range (low, high) with 0 <= low <= high, got {(low, high)}")
+        if not self.control_interval_s[0] > 0.0:
+            raise ValueError(f"control_interval_s must be positive, got {self.control_interval_s}")
+        if not (0.0 <= self.turbulence_sigma_mps < math.inf):  # NaN fails too
+            raise ValueError(f"turbulence_sigma_mps must be finite and >= 0, got {self.turbulence_sigma_mps}")
+        if not self.servo_rate_limit_degps > 0.0:  # NaN fails too
+            raise ValueError(f"servo_rate_limit_degps must be positive, got {self.servo_rate_limit_degps}")
+
+    @classmethod
+    def ideal(cls, **overrides) -> CoreConfig:
+        """No disturbance at all: 50 ms interval, no delay, no noise, nominal aircraft, calm air."""
+        base = cls(control_interval_s=(0.05, 0.05), delay_s=(0.0, 0.0), sensor_noise=False, parameters="nominal",
+                   turbulence=False, perturb_attitude_deg=0.0, perturb_rate_degps=0.0, perturb_eas_mps=0.0)
+        return replace(base, **overrides)
+
+
+@dataclass
+class EpisodeSetup:
+    """What was drawn for the episode."""
+
+    seed: int | None
+    altitude_m: float
+    airspeed_eas_mps: float
+    control_interval_s: float
+    delay_s: float
+    scales: dict[str, float]
+    trim_command: np.ndarray  # aileron, elevator, rudder (deg), throttle
+
+
+@dataclass(frozen=True)
+class Navigation:
+    """Local position (north and east of the episode's start, m), altitude, ground velocity
+    (NED, m/s), true airspeed, V_tas / V_eas and heading."""
+
+    north_m: float
+    east_m: float
+    altitude_m: float
+    v_north_mps: float
+    v_east_mps: float
+    v_down_mps: float
+    tas_mps: float
+    eas_to_tas: float
+    heading_rad: float
+
+
+class CommandError(ValueError):
+    """A command that is not finite or not inside the actuator ranges."""
+
+
+class FlightCore:
+    """One aircraft with delay, noise, turbulence, parameter sets and backlash.
+
+    Args:
+        config: disturbances and episode start.
+        root: JSBSim root; the packaged aircraft by default. Episodes start from this aircraft's trim.
+    """
+
+    def __init__(self, config: CoreConfig | None = None, root: Path | str | None = None):
+        self.config = config or CoreConfig()
+        self.root = root
+        self.trim_table = TrimTable.shared(root)
+        self.noise = dist.OrnsteinUhlenbeckNoise([self.config.noise_scale * s for s in NOISE_SIGMA],
+                                                 self.config.noise_reversion_per_s)
+        self._command_scale = (1.0 / SURFACE_LIMITS_DEG["aileron"], 1.0 / SURFACE_LIMITS_DEG["elevator"],
+                               1.0 / SURFACE_LIMITS_DEG["rudder"], 1.0)
+        self._load()
+        self.setup: EpisodeSetup | None = None
+        self.rng = np.random.default_rng()
+        # Multiplies the turbulence series: missions switch it between 0 and 1 by route leg.
+        self.turbulence_gain = 1.0
+        self._nav_origin: tuple[float, float] | None = None  # latitude, longitude of the episode start
+
+    def _load(self) -> None:
+        """A fresh JSBSim instance, with direct accessors to the properties used every step."""
+        self.sim = Simulation(self.root, sim_rate_hz=self.config.sim_rate_hz)
+        self.dt_s = self.sim.dt_s
+        self.span_m = self.sim["metrics/bw-ft"] * FT_TO_M
+        f = self.sim.fdm
+        pm = f.get_property_manager()
+
+        def getter(name):
+            return pm.get_node(name, False).get_double_value
+
+        def setter(name):
+            return pm.get_node(name, False).set_double_value
+
+        self._run = f.run
+        self._get_state = [getter(n) for n in (
+            "position/h-sl-meters", "attitude/phi-rad", "attitude/theta-rad", "velocities/p-rad_sec",
+            "velocities/q-rad_sec", "velocities/r-rad_sec", "velocities/vt-fps", "aero/alpha-rad", "aero/beta-rad",
+            "fcs/aileron-pos-deg", "fcs/elevator-pos-deg", "fcs/rudder-pos-deg", "fcs/throttle-ref-norm",
+            "atmosphere/rho-slugs_ft3", "attitude/psi-rad", "position/h-agl-ft")]
+        self._set_command = [setter(n) for n in CONTROL_INPUTS]
+        self._set_gust = [setter(f"atmosphere/gust-{a}-fps") for a in ("north", "east", "down")]
+        self._set_gust_rate = [setter(f"atmosphere/gust-{a}-rad_sec") for a in "pqr"]
+
+    # ------------------------------------------------------------------ episode start
+    def reset(self, seed: int | None = None, altitude_m: float | None = None,
+              airspeed_eas_mps: float | None = None, parameters: str | None = None,
+              heading_deg: float | None = None) -> np.ndarray:
+        """Start an episode: draw its setting, trim, perturb. Returns the first measurement.
+
+        ``altitude_m``, ``airspeed_eas_mps``, ``parameters`` and ``heading_deg`` override the
+        draws (evaluation, missions).
+        """
+        cfg = self.config
+        self.rng = rng = np.random.default_rng(seed)
+        # Draw everything up front, in a fixed order, so that overrides do not shift later draws.
+        alt = float(rng.uniform(*cfg.altitude_range_m))
+        eas = float(rng.uniform(*cfg.eas_range_mps))
+        interval = float(rng.uniform(*cfg.control_interval_s))
+        delay = float(rng.uniform(*cfg.delay_s))
+        perturb = rng.uniform(-1.0, 1.0, size=7)
+        drawn_scales = dist.draw_scales(dist.RANDOMISED, rng)  # drawn even when a fixed set overrides it
+        chosen = parameters or cfg.parameters
+        if chosen == dist.RANDOMISED:
+            k = cfg.parameter_strength  # applied after the draw, so the random stream is the same
+            scales = drawn_scales if k == 1.0 else {name: 1.0 + k * (v - 1.0) for name, v in drawn_scales.items()}
+        else:
+            scales = dist.draw_scales(chosen, rng)
+        turbulence_seed = int(rng.integers(2**31 - 1))
+        jsbsim_seed = int(rng.integers(2**31 - 1))
+        noise_seed = int(rng.integers(2**63))
+        alt = alt if altitude_m is None else float(altitude_m)
+        eas = eas if airspeed_eas_mps is None else float(airspeed_eas_mps)
+        heading = float(perturb[6] * 180.0) if heading_deg is None else float(heading_deg)
+
+        # A fresh JSBSim instance per episode (about 10 ms): JSBSim's initial-condition setters
+        # keep quantities from the previous state, which leaves round-off differences between
+        # episodes with the same seed. A fresh instance makes each episode a function of its seed alone.
+        self._load()
+        sim, f = self.sim, self.sim.fdm
+        f["simulation/randomseed"] = jsbsim_seed
+        for term in SCALED_TERMS:
+            f[f"aero/scale/{term}"] = scales.get(term, 1.0)
+        f["fcs/backlash-width-deg"] = cfg.backlash_deg
+        f["fcs/surface-rate-limit-deg_s"] = cfg.servo_rate_limit_degps
+        for s in self._set_gust + self._set_gust_rate:
+            s(0.0)
+        # The nominal aircraft's trim, interpolated; with scaled coefficients the start is then
+        # slightly off trim, which the perturbation below dwarfs.
+        trim = self.trim_table.lookup(alt, eas)
+        rho_ratio = sim.density_kg_m3(alt) / RHO0_KG_M3
+        tas = eas / math.sqrt(rho_ratio)
+        sim.set_initial_conditions(alt, tas, alpha_deg=trim.alpha_deg)
+        # Bring actuators and rotors (at rest in a fresh instance) to the trim commands.
+        trim_command = np.array([0.0, trim.elevator_deg, 0.0, trim.throttle])
+        self._write_command(trim_command)
+        sim.settle_actuators(fast=True)
+        att = np.radians(cfg.perturb_attitude_deg) * perturb[:2]
+        rates = np.radians(cfg.perturb_rate_degps) * perturb[2:5]
+        eas0 = eas + cfg.perturb_eas_mps * perturb[5]
+        tas0 = eas0 / math.sqrt(rho_ratio)
+        sim.set_initial_conditions(alt, tas0, alpha_deg=trim.alpha_deg, pitch_deg=trim.alpha_deg + math.degrees(att[1]),
+                                   roll_deg=math.degrees(att[0]), heading_deg=heading,
+                                   rates_radps=tuple(rates))
+        self.setup = EpisodeSetup(seed, alt, eas, interval, delay, scales, trim_command)
+        self.turbulence = None
+        if cfg.turbulence:
+            self.turbulence = turb.dryden_series(cfg.max_steps + 1, alt, tas, self.span_m, interval,
+                                                 np.random.default_rng(turbulence_seed), cfg.turbulence_intensity,
+                                                 cfg.turbulence_sigma_mps, cfg.turbulence_clip)
+            # Plain lists: indexing them every step is several times cheaper than numpy rows.
+            self._gust_wind = self.turbulence.wind_mps.tolist()
+            self._gust_rate = self.turbulence.rate_radps.tolist()
+        self.noise.reset(np.random.default_rng(noise_seed), cfg.max_steps + 1)
+        self.step_index = 0
+        self.sim_steps = 0
+        self._pending: deque[tuple[int, np.ndarray]] = deque()
+        self.applied_command = trim_command.copy()
+        self._nav_origin = None
+        self._apply_gusts()
+        return self._measure()
+
+    # ------------------------------------------------------------------ stepping
+    def check_command(self, command: np.ndarray) -> np.ndarray:
+        """Validate a physical command (aileron, elevator, rudder in deg, throttle 0..1)."""
+        command = np.asarray(command, dtype=float)
+        if command.shape != (4,):
+            raise CommandError(f"command must have 4 elements (aileron, elevator, rudder, throttle), got {command.shape}")
+        # Written so that NaN fails too (every comparison with NaN is false).
+        if not (np.all(command >= COMMAND_LOW - 1e-9) and np.all(command <= COMMAND_HIGH + 1e-9)):
+            raise CommandError(f"command {command} is not finite or outside [{COMMAND_LOW}, {COMMAND_HIGH}]")
+        return command
+
+    def step(self, command: np.ndarray, checked: bool = False) -> np.ndarray:
+        """Give ``command`` at the current control instant and fly to the next one.
+
+        Returns the measurement at the next control instant. ``checked`` skips the validation
+        of a command that its caller built from a validated action.
+        """
+        self.fly(command if checked else self.check_command(command))
+        return self._measure()
+
+    def fly(self, command) -> None:
+        """``step`` without the validation and the measurement (the batched task measures itself).
+
+        ``command``: aileron, elevator, rudder (deg), throttle; any sequence of 4 floats.
+        """
+        setup = self.setup
+        k = self.step_index
+        # Simulation step at which the command reaches the actuators, and the one that ends the interval.
+        apply_at = math.ceil((k * setup.control_interval_s + setup.delay_s) / self.dt_s - 1e-9)
+        self._pending.append((apply_at, command))
+        end = round((k + 1) * setup.control_interval_s / self.dt_s)
+        pending, run = self._pending, self._run
+        n = self.sim_steps
+        while n < end:
+            while pending and pending[0][0] <= n:
+                self._write_command(pending.popleft()[1])
+            run()
+            n += 1
+        self.sim_steps = n
+        self.step_index = k + 1
+        self._apply_gusts()
+
+    def _write_command(self, command) -> None:
+        self.applied_command = command
+        for s, v, k in zip(self._set_command, command, self._command_scale):
+            s(v * k)
+
+    def _apply_gusts(self) -> None:
+        """Hold the turbulence sample of this control interval (zero-order hold)."""
+        if self.turbulence is None:
+            return
+        k = min(self.step_index, len(self._gust_wind) - 1)
+        g = self._get_state
+        gain = self.turbulence_gain
+        ned = turb.body_to_ned(g[1](), g[2](), g[14](), self._gust_wind[k])
+        for s, v in zip(self._set_gust, ned):
+            s(gain * v * M_TO_FT)
+        for s, v in zip(self._set_gust_rate, self._gust_rate[k]):
+            s(gain * v)
+
+    def episode_conditions(self) -> list[float]:
+        """What a simulation knows and a flight computer does not, scaled to about 1: the delay and
+        control interval (s / 0.1 and s / 0.05), the coefficient scales ((s - 1) / 0.2, in
+        ``SCALED_TERMS`` order) and the turbulence now (winds / 2 m/s, rates / 1 deg/s, body axes).
+        For critics that learn in simulation only (``task.AttitudeTaskBatch.critic_states``)."""
+        setup = self.setup
+        out = [setup.delay_s / 0.1, setup.control_interval_s / 0.05]
+        out += [(setup.scales.get(term, 1.0) - 1.0) / 0.2 for term in SCALED_TERMS]
+        if self.turbulence is None:
+            return out + [0.0] * 6
+        k = min(self.step_index, len(self._gust_wind) - 1)
+        gain = self.turbulence_gain
+        return (out + [gain * w / 2.0 for w in self._gust_wind[k]]
+                + [gain * r / DEG_TO_RAD for r in self._gust_rate[k]])
+
+    # ------------------------------------------------------------------ measurements
+    def true_state(self) -> list[float]:
+        """The state of SPEC Eq. 18 without noise (see ``STATE_NAMES``) as a list."""
+        g = self._get_state
+        return [g[0](), g[1](), g[2](), g[3](), g[4](), g[5](), math.sqrt(g[13]() / RHO0_SLUG_FT3) * g[6]() * FT_TO_M,
+                g[7](), g[8](), g[9]() * DEG_TO_RAD, g[10]() * DEG_TO_RAD, g[11]() * DEG_TO_RAD,
+                g[12]()]
+
+    def height_above_ground_m(self) -> float:
+        """Height above the simulated terrain (``sim.TERRAIN_ELEVATION_M``), for the ground-strike check."""
+        return self._get_state[15]() * FT_TO_M
+
+    def _measure(self) -> np.ndarray:
+        state = self.true_state()
+        self.last_true_state = state
+        if self.config.sensor_noise:
+            return np.array(state) + self.noise.step(self.setup.control_interval_s, self.rng)
+        return np.array(state)
+
+    @property
+    def time_s(self) -> float:
+        return self.sim_steps * self.dt_s
+
+    def navigation(self) -> Navigation:
+        """Position and velocity as a GNSS/INS would give them (true values)."""
+        f, g = self.sim.fdm, self._get_state  # g: the cached accessors of ``_load``
+        lat, lon = f["position/lat-geod-rad"], f["position/long-gc-rad"]
+        if self._nav_origin is None:
+            self._nav_origin = (lat, lon)
+        lat0, lon0 = self._nav_origin
+        altitude_m = g[0]()
+        radius = EARTH_RADIUS_M + altitude_m
+        return Navigation(
+            north_m=(lat - lat0) * radius, east_m=(lon - lon0) * math.cos(lat0) * radius,
+            altitude_m=altitude_m,
+            v_north_mps=f["velocities/v-north-fps"] * FT_TO_M, v_east_mps=f["velocities/v-east-fps"] * FT_TO_M,
+            v_down_mps=f["velocities/v-down-fps"] * FT_TO_M, tas_mps=g[6]() * FT_TO_M,
+            eas_to_tas=1.0 / math.sqrt(g[13]() / RHO0_SLUG_FT3), heading_rad=g[14](),
+        )
+
+    def envelope_violation(self) -> str | None:
+        """Why the aircraft has left the flight envelope, or None."""
+        code = envelope_code(self.last_true_state, self.height_above_ground_m(), self.config.envelope)
+        return termination_reason(code, self.config.envelope)
+
+
+# Episode-end causes, in the order they are checked; code 0 is "inside the envelope".
+TERMINATION_CAUSES = ("", "non-finite state", "ground strike", "altitude too high", "roll limit", "pitch limit",
+                      "angle of attack limit", "airspeed limit")
+
+
+@functools.lru_cache(maxsize=16)
+def _envelope_bounds(env: Envelope) -> tuple[float, ...]:
+    r = math.radians
+    return (env.altitude_range_m[0], env.altitude_range_m[1], r(env.max_abs_roll_deg), r(env.max_abs_pitch_deg),
+            r(env.alpha_range_deg[0]), r(env.alpha_range_deg[1]), env.eas_range_mps[0], env.eas_range_mps[1])
+
+
+def envelope_code(state, height_agl_m: float, env: Envelope) -> int:
+    """Index into ``TERMINATION_CAUSES`` for one state (``STATE_NAMES`` order); 0 inside the envelope."""
+    agl_min, alt_max, roll_max, pitch_max, alpha_lo, alpha_hi, eas_lo, eas_hi = _envelope_bounds(env)
+    if not math.isfinite(sum(state) + height_agl_m):  # NaN and inf propagate through the sum
+        return 1
+    if height_agl_m < agl_min:
+        return 2
+    if state[0] > alt_max:
+        return 3
+    if abs(state[1]) > roll_max:
+        return 4
+    if abs(state[2]) > pitch_max:
+        return 5
+    if not alpha_lo <= state[7] <= alpha_hi:
+        return 6
+    if not eas_lo <= state[6] <= eas_hi:
+        return 7
+    return 0
+
+
+def termination_reason(code: int, env: Envelope) -> str | None:
+    """A readable reason for an ``envelope_code``, with the limit that was passed."""
+    if code == 0:
+        return None
+    limits = {3: f" ({env.altitude_range_m[1]:g} m)", 4: f" ({env.max_abs_roll_deg:g} deg)",
+              5: f" ({env.max_abs_pitch_deg:g} deg)", 6: f" ({env.alpha_range_deg[0]:g}..{env.alpha_range_deg[1]:g} deg)",
+              7: f" ({env.eas_range_mps[0]:g}..{env.eas_range_mps[1]:g} m/s EAS)",
+              2: f" (below {env.altitude_range_m[0]:g} m above ground)"}
+    return TERMINATION_CAUSES[code] + limits.get(int(code), "")

@@ -1,0 +1,335 @@
+"""The attitude-tracking task on top of the flight core: goals, observation, action, reward, episode end.
+
+| item | definition |
+|---|---|
+| observation (20) | the paper's Eqs. 18-19 with the last action: ``jsbsim_env.control.observation`` (its table gives every index, unit and scale) |
+| action (4) | in [-1, 1]: aileron +-30 deg, elevator +-30 deg, rudder +-20 deg, throttle 0..1 (the paper's Table 2) |
+| reward | the paper's Eq. 22: 1 - p_roll - p_pitch - p_V - p_beta, errors in deg and m/s; each term in ``info`` |
+| goals | drawn in roll +-5 deg, pitch +-10 deg, V_eas 8..12 m/s; each channel steps to a new draw after a hold drawn in ``goal_hold_s`` |
+| start | altitude and EAS drawn (``CoreConfig``), nominal trim, then perturbed |
+| end | terminated on ground strike, non-finite state or leaving ``Envelope`` (reason in ``info``); truncated after ``max_steps`` interactions |
+
+Actions outside [-1, 1] by more than 1e-6, or not finite, raise ``ActionError``; within that
+tolerance they are clipped. ``info["true_state"]`` is the state before sensor noise, in
+``jsbsim_env.sim.core.STATE_NAMES`` order (altitude m, roll and pitch rad, p, q, r rad/s, EAS m/s,
+alpha and beta rad, aileron, elevator and rudder positions rad, throttle 0..1).
+
+With ``TaskConfig.surface_trim_gain`` > 0, the flown controller's surface trim
+(``jsbsim_env.control.trims.SurfaceTrim``, the same stage objects as in flight) adds its trims to
+every command and takes them off the observed surface positions, as the flight runtime does.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from jsbsim_env.control.observation import (  # noqa: F401 - the task's observation and action, re-exported
+    ACTION_OFFSET,
+    ACTION_SCALE,
+    ACTION_SIZE,
+    ACTION_TOLERANCE,
+    GOAL_COLUMNS,
+    GOAL_NAMES,
+    LAST_ACTION_COLUMNS,
+    OBS_OFFSET,
+    OBS_SCALE,
+    OBS_SIZE,
+    ActionError,
+    action_list_to_command,
+    action_to_command,
+    command_to_action,
+    initial_last_action,
+    scale_observation,
+    scale_row,
+)
+from jsbsim_env.control.pid import GainSchedule, PIDAttitudeController
+from jsbsim_env.control.trims import SurfaceTrim, check_surface_trim_gain
+from jsbsim_env.sim.core import (
+    N_STATE,
+    STATE_NAMES,
+    CoreConfig,
+    FlightCore,
+    envelope_code,
+    termination_reason,
+)
+
+GOAL_LOW = np.array([math.radians(-5.0), math.radians(-10.0), 8.0])
+GOAL_HIGH = np.array([math.radians(5.0), math.radians(10.0), 12.0])
+_DEG = math.degrees(1.0)
+
+
+REWARD_TERMS = ("penalty_roll", "penalty_pitch", "penalty_airspeed", "penalty_beta")
+# The state elements the reward depends on (``core.STATE_NAMES`` order): roll, pitch, V_eas, sideslip.
+ACHIEVED_INDEX = (1, 2, 6, 8)
+EAS_INDEX = ACHIEVED_INDEX[2]
+# Errors at which each penalty of Eq. 22 saturates (rad, rad, m/s): beyond them a goal error
+# no longer changes the reward.
+PENALTY_SATURATION = (math.radians(1.5), math.radians(1.8), 1.5)
+
+
+def _penalty(x: float, cap: float, tail: float) -> float:
+    """One penalty of Eq. 22, ``x`` before its cap: capped, plus ``tail`` times what lies beyond."""
+    return min(x, cap) + tail * max(x - cap, 0.0)
+
+
+def reward_terms(state, goal, sideslip_weight: float = 1.0, penalty_tail: float = 0.0,
+                 roll_weight: float = 1.0, pitch_weight: float = 1.0) -> list[float]:
+    """SPEC Eq. 22 for one true state (``core.STATE_NAMES`` order) and goal: the four penalties
+    (``REWARD_TERMS``, errors in degrees and m/s) and then the reward, 1 minus their sum;
+    ``sideslip_weight``, ``roll_weight`` and ``pitch_weight`` scale those penalties and their caps,
+    ``penalty_tail`` keeps that share of each penalty's slope beyond its cap (``TaskConfig``; 1, 0
+    and 1 give Eq. 22)."""
+    p_roll = roll_weight * _penalty(abs(state[1] - goal[0]) * _DEG / 5.0, 0.3, penalty_tail)
+    p_pitch = pitch_weight * _penalty(abs(state[2] - goal[1]) * _DEG / 6.0, 0.3, penalty_tail)
+    p_speed = _penalty(abs(state[6] - goal[2]) / 5.0, 0.3, penalty_tail)
+    p_beta = sideslip_weight * _penalty(abs(state[8]) * _DEG / 30.0, 0.1, penalty_tail)
+    return [p_roll, p_pitch, p_speed, p_beta, 1.0 - (p_roll + p_pitch + p_speed + p_beta)]
+
+
+def _penalties(x, cap: float, tail: float):
+    """``_penalty`` on arrays (numpy or torch)."""
+    capped = x.clip(max=cap)
+    return capped + tail * (x - capped) if tail else capped
+
+
+def reward_from_achieved(achieved, goal, sideslip_weight: float = 1.0, penalty_tail: float = 0.0,
+                         roll_weight: float = 1.0, pitch_weight: float = 1.0):
+    """SPEC Eq. 22 on arrays (numpy or torch): ``achieved`` (..., 4) in ``ACHIEVED_INDEX`` order and
+    ``goal`` (..., 3) -> reward (...). The vectorised twin of ``reward_terms``."""
+    p_roll = roll_weight * _penalties(abs(achieved[..., 0] - goal[..., 0]) * (_DEG / 5.0), 0.3, penalty_tail)
+    p_pitch = pitch_weight * _penalties(abs(achieved[..., 1] - goal[..., 1]) * (_DEG / 6.0), 0.3, penalty_tail)
+    p_speed = _penalties(abs(achieved[..., 2] - goal[..., 2]) / 5.0, 0.3, penalty_tail)
+    p_beta = sideslip_weight * _penalties(abs(achieved[..., 3]) * (_DEG / 30.0), 0.1, penalty_tail)
+    return 1.0 - (p_roll + p_pitch + p_speed + p_beta)
+
+
+@dataclass(frozen=True)
+class TaskConfig:
+    """The attitude-tracking task; the flight core's settings are in ``core``. The defaults are the
+    paper's task; the registered versions (``jsbsim_env.task.versions``) name the tasks the package
+    trains on.
+
+    ``surface_trim_gain`` g > 0 flies the policy's commands through the control stack's surface
+    trim at g times the PID's integral gains (``jsbsim_env.control.trims``); 0: none, as the paper.
+    ``sideslip_weight``, ``roll_weight`` and ``pitch_weight`` multiply Eq. 22's sideslip, roll and
+    pitch penalties and their caps (1: the paper's reward).
+    ``penalty_tail`` keeps that share of each penalty's slope beyond its cap (0: the paper's reward),
+    so that a large error still costs more than a small one.
+    ``external_throttle`` is the share of episodes in which a speed hold (the PID's airspeed loop)
+    flies the throttle instead of the policy, as TECS does on a route. Those episodes are speed-free
+    for the policy, as a route flown with ``RouteConfig.attitude_eas_demand = "measured"`` is: its
+    EAS goal is its measured EAS (so it sees no airspeed error) and the reward has no airspeed term.
+    """
+
+    core: CoreConfig = field(default_factory=CoreConfig)
+    goal_hold_s: tuple[float, float] = (3.0, 10.0)  # each channel holds its goal this long, drawn uniformly
+    surface_trim_gain: float = 0.0  # fraction of the PID's integral gains; 0: none, as the paper
+    sideslip_weight: float = 1.0
+    roll_weight: float = 1.0
+    pitch_weight: float = 1.0
+    penalty_tail: float = 0.0
+    external_throttle: float = 0.0  # share of episodes; 0: the policy always flies the throttle, as the paper
+
+    def __post_init__(self):
+        check_surface_trim_gain(self.surface_trim_gain, "surface_trim_gain")
+        for name in ("sideslip_weight", "roll_weight", "pitch_weight"):
+            if not 0.0 <= getattr(self, name) <= 10.0:
+                raise ValueError(f"{name} must lie in [0, 10], got {getattr(self, name)}")
+        if not 0.0 <= self.penalty_tail <= 1.0:
+            raise ValueError(f"penalty_tail must lie in [0, 1], got {self.penalty_tail}")
+        if not 0.0 <= self.external_throttle <= 1.0:
+            raise ValueError(f"external_throttle must lie in [0, 1], got {self.external_throttle}")
+
+    @property
+    def observation_size(self) -> int:
+        return OBS_SIZE
+
+
+_NO_EXTRA_NOISE = [0.0] * (ACTION_SIZE + len(GOAL_NAMES))  # the last action and the goals are known exactly
+
+
+class AttitudeTaskBatch:
+    """N aircraft flying the attitude-tracking task; arrays in, arrays out; no RL library.
+
+    Each aircraft's episode depends only on its seed. The per-aircraft work is plain Python on
+    short lists: for vectors of 4 to 16 numbers that is several times faster than numpy calls.
+    """
+
+    def __init__(self, num_envs: int, config: TaskConfig | None = None, root=None):
+        self.config = config or TaskConfig()
+        self.num_envs = n = num_envs
+        self.cores = [FlightCore(self.config.core, root) for _ in range(n)]
+        self.states: list[list[float]] = [[0.0] * N_STATE for _ in range(n)]  # true states
+        self.noise: list[list[float]] = [[0.0] * N_STATE for _ in range(n)]
+        self.goals = np.zeros((n, 3))
+        self._goal_lists: list[list[float]] = [[0.0, 0.0, 0.0] for _ in range(n)]
+        self.next_goal_change_s = np.full((n, 3), np.inf)
+        self._next_goal_change_min_s = [math.inf] * n
+        self.steps = np.zeros(n, dtype=np.int64)
+        self.interval_s = np.zeros(n)
+        self._goal_rngs: list[np.random.Generator] = [np.random.default_rng() for _ in range(n)]
+        self.last_actions: list[list[float]] = [[0.0] * ACTION_SIZE for _ in range(n)]
+        self._sensor_noise = self.config.core.sensor_noise
+        trim, self._external_share = self.config.surface_trim_gain, self.config.external_throttle
+        schedule = GainSchedule() if trim > 0.0 or self._external_share > 0.0 else None  # read once for all
+        self._trims = [SurfaceTrim(trim, schedule) for _ in range(n)] if trim > 0.0 else None
+        self._speed_holds = [PIDAttitudeController(schedule) for _ in range(n)] if self._external_share > 0.0 else None
+        self._sideslip_weight, self._roll_weight = self.config.sideslip_weight, self.config.roll_weight
+        self._pitch_weight = self.config.pitch_weight
+        self._penalty_tail = self.config.penalty_tail
+        self.external_throttle = [False] * n  # whether the speed hold flies each aircraft's throttle
+        self._obs_lists: list[list[float]] = [[0.0] * OBS_SIZE for _ in range(n)]
+
+    # ------------------------------------------------------------------ episode start
+    def reset_one(self, i: int, seed: int | None = None, **overrides) -> np.ndarray:
+        """Start a new episode on aircraft ``i``; ``overrides`` go to ``FlightCore.reset``. Returns its observation."""
+        core = self.cores[i]
+        core.reset(seed, **overrides)
+        self.states[i] = core.last_true_state = core.true_state()
+        self.last_actions[i] = initial_last_action(self.states[i])
+        self.interval_s[i] = core.setup.control_interval_s
+        # Goals draw from their own stream of the episode's seed.
+        self._goal_rngs[i] = grng = np.random.default_rng(core.rng.integers(2**63))
+        self.goals[i] = grng.uniform(GOAL_LOW, GOAL_HIGH)
+        self._goal_lists[i] = self.goals[i].tolist()
+        self.next_goal_change_s[i] = grng.uniform(*self.config.goal_hold_s, size=3)
+        self._next_goal_change_min_s[i] = float(self.next_goal_change_s[i].min())
+        if self._speed_holds is not None:  # drawn only then, so that other settings keep their goal draws
+            self.external_throttle[i] = bool(grng.random() < self._external_share)
+            self._speed_holds[i].reset()
+        self.noise[i] = core.noise.step(core.setup.control_interval_s, core.rng) if self._sensor_noise \
+            else [0.0] * N_STATE
+        self.steps[i] = 0
+        if self._trims is not None:
+            self._trims[i].reset()
+        return np.array(self._observation(i), dtype=np.float32)
+
+    # ------------------------------------------------------------------ stepping
+    def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """One control interval for every aircraft.
+
+        Returns observations (N x 20 float32), reward terms (N x 5: ``REWARD_TERMS`` then the
+        reward), terminated and truncated flags, and termination codes (``core.TERMINATION_CAUSES``).
+        The caller resets the aircraft whose episode ended.
+        """
+        actions = np.asarray(actions, dtype=float)
+        if actions.shape != (self.num_envs, ACTION_SIZE):
+            raise ActionError(f"actions must have shape ({self.num_envs}, {ACTION_SIZE}): one row of aileron, "
+                              f"elevator, rudder, throttle per aircraft; got shape {actions.shape}")
+        rows = actions.tolist()
+        hi = 1.0 + ACTION_TOLERANCE
+        for i, a in enumerate(rows):
+            if not all(-hi <= x <= hi for x in a):  # NaN fails too
+                raise ActionError(f"action of aircraft {i} is not finite or outside [-1, 1]: {a}")
+        envelope, max_steps = self.config.core.envelope, self.config.core.max_steps
+        obs, terms = [], []
+        codes = [0] * self.num_envs
+        self.steps += 1
+        for i, (core, a) in enumerate(zip(self.cores, rows)):
+            a = self.last_actions[i] = [min(max(x, -1.0), 1.0) for x in a]
+            command = action_list_to_command(a)
+            if self._trims is not None:
+                command = self._trims[i].apply(command)
+            external = self.external_throttle[i]
+            if external:
+                # The speed hold reads the measurement the policy acted on and flies the real goal.
+                s, e = self.states[i], self.noise[i]
+                command[3] = self._speed_holds[i].throttle(core.setup.control_interval_s, s[0] + e[0],
+                                                           s[EAS_INDEX] + e[EAS_INDEX], self._goal_lists[i][2])
+            core.fly(command)
+            self.states[i] = state = core.last_true_state = core.true_state()
+            code = codes[i] = envelope_code(state, core.height_above_ground_m(), envelope)
+            goal = self._goal_lists[i]
+            if external:  # speed-free: no airspeed term
+                goal = [goal[0], goal[1], state[EAS_INDEX]]
+            t = reward_terms(state, goal, self._sideslip_weight, self._penalty_tail, self._roll_weight,
+                             self._pitch_weight)
+            if code and not math.isfinite(t[4]):
+                t = [0.0] * 5
+            terms.append(t)
+            if self._sensor_noise:
+                self.noise[i] = core.noise.step(core.setup.control_interval_s, core.rng)
+            time_s = core.step_index * core.setup.control_interval_s
+            if time_s >= self._next_goal_change_min_s[i]:
+                self._update_goals(i, time_s)
+            if self._trims is not None and not code:
+                # The error against the goal now held, measured as the policy sees it, trims the
+                # next command (as the control stack does in flight).
+                measured = [x + e for x, e in zip(state, self.noise[i])]
+                self._trims[i].integrate(core.setup.control_interval_s, measured, self._goal_lists[i])
+            obs.append(self._observation(i))
+        codes_a = np.array(codes)
+        terminated = codes_a > 0
+        truncated = ~terminated & (self.steps >= max_steps)
+        observations = np.array(obs, dtype=np.float32)
+        if terminated.any():
+            observations = np.nan_to_num(observations)
+        return observations, np.array(terms), terminated, truncated, codes_a
+
+    def _update_goals(self, i: int, time_s: float) -> None:
+        """Step-style goals: each channel jumps to a new draw once its hold has run out."""
+        rng = self._goal_rngs[i]
+        for j in np.flatnonzero(time_s >= self.next_goal_change_s[i]):
+            self.goals[i, j] = rng.uniform(GOAL_LOW[j], GOAL_HIGH[j])
+            self.next_goal_change_s[i, j] = time_s + rng.uniform(*self.config.goal_hold_s)
+        self._goal_lists[i] = self.goals[i].tolist()
+        self._next_goal_change_min_s[i] = float(self.next_goal_change_s[i].min())
+
+    def set_goal(self, i: int, goal) -> None:
+        """Give aircraft ``i`` this goal and hold it (its random schedule stops until the next reset);
+        for scripted references such as doublets."""
+        self.goals[i] = goal
+        self._goal_lists[i] = self.goals[i].tolist()
+        self.next_goal_change_s[i] = math.inf
+        self._next_goal_change_min_s[i] = math.inf
+
+    # ------------------------------------------------------------------ observations
+    def _observation(self, i: int) -> list[float]:
+        """Scaled network observation of aircraft ``i`` (measured state, last action, goal), as a list."""
+        raw = self.states[i] + self.last_actions[i] + self._goal_lists[i]
+        if self._trims is not None:  # the policy observes the part of each surface it commanded
+            raw = self._trims[i].remove_from(raw)
+        noise = self.noise[i] + _NO_EXTRA_NOISE
+        if self.external_throttle[i]:  # speed-free: the EAS goal is the measured EAS
+            raw[-1] = self.states[i][EAS_INDEX] + self.noise[i][EAS_INDEX]
+        obs = self._obs_lists[i] = scale_row(raw, noise)
+        return obs
+
+    def measurements(self) -> np.ndarray:
+        """Measured states (true state plus sensor noise), N x 13."""
+        return np.array(self.states) + np.array(self.noise)
+
+    def observations(self) -> np.ndarray:
+        """The latest scaled network observations, N x ``OBS_SIZE`` float32
+        (non-finite values of an ended episode as 0)."""
+        return np.nan_to_num(np.array(self._obs_lists, dtype=np.float32))
+
+
+class AttitudeTask:
+    """One aircraft flying the attitude-tracking task, with gymnasium-style returns."""
+
+    def __init__(self, config: TaskConfig | None = None, root=None):
+        self.batch = AttitudeTaskBatch(1, config, root)
+        self.config = self.batch.config
+        self.core = self.batch.cores[0]
+
+    def reset(self, seed: int | None = None, **overrides) -> tuple[np.ndarray, dict]:
+        """Start an episode; ``overrides`` go to ``FlightCore.reset`` (altitude_m, airspeed_eas_mps, parameters)."""
+        obs = self.batch.reset_one(0, seed, **overrides)
+        return obs, {"setup": self.core.setup, "goal": self.batch.goals[0].copy()}
+
+    def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict]:
+        b = self.batch
+        goal = b.goals[0].copy()
+        action = np.asarray(action, dtype=float)
+        if action.shape != (ACTION_SIZE,):
+            raise ActionError(f"action must have shape ({ACTION_SIZE},): aileron, elevator, rudder, throttle; "
+                              f"got shape {action.shape}")
+        obs, terms, terminated, truncated, codes = b.step(action[None])
+        info = {name: float(terms[0, j]) for j, name in enumerate(REWARD_TERMS)}
+        info.update(termination=termination_reason(int(codes[0]), b.config.core.envelope) or "",
+                    time_s=self.core.time_s, goal=goal, true_state=np.array(b.states[0]))
+        return obs[0], float(terms[0, 4]), bool(terminated[0]), bool(truncated[0]), info

@@ -1,0 +1,54 @@
+"""The registered versions of the attitude task, as Gymnasium versions its environments: a change
+to what a policy is trained on or flies with is a new version, and a run or policy file records the
+version it was made with.
+
+| version | training episodes | flight stack |
+|---|---|---|
+| ``SolarUAVAttitude-v0`` | the paper's task: Eq. 22's reward, control delays 80-120 ms | the network alone |
+| ``SolarUAVAttitude-v1`` | surface trim at 0.5 x the PID's integral gains; reward with the roll and pitch penalties x2 and sideslip x6 (one cap for all three) and a tenth of each slope kept beyond its cap; delays 40-120 ms; 30 % of episodes with the throttle on a speed hold | goal trim (20 s) and surface trim at 2 x the PID's integral gains |
+
+Both train in the paper's disturbances otherwise (noise, random interval, coefficient spread,
+0.5 m/s turbulence) and are evaluated in the paper's.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+from jsbsim_env.control.stack import StackSettings
+from jsbsim_env.sim.core import CoreConfig
+from jsbsim_env.task.attitude import TaskConfig
+
+
+@dataclass(frozen=True)
+class TaskVersion:
+    """One registered version: the training episodes' task and the stack its policies fly with."""
+
+    env_id: str
+    task: TaskConfig
+    flight_stack: StackSettings
+
+
+V0 = TaskVersion("SolarUAVAttitude-v0", TaskConfig(), StackSettings())
+V1 = TaskVersion(
+    "SolarUAVAttitude-v1",
+    TaskConfig(core=dataclasses.replace(CoreConfig(), delay_s=(40.0 / 1000.0, 120.0 / 1000.0)),
+               surface_trim_gain=0.5, sideslip_weight=6.0, roll_weight=2.0, pitch_weight=2.0, penalty_tail=0.1,
+               external_throttle=0.3),
+    StackSettings(window_steps=8, goal_trim_time_constant_s=20.0, surface_trim_gain=2.0),
+)
+VERSIONS = {v.env_id: v for v in (V0, V1)}
+LATEST = V1.env_id
+
+
+def task_version(env_id: str) -> TaskVersion:
+    """The version registered as ``env_id``; a clear error naming it and the known ones otherwise."""
+    try:
+        return VERSIONS[env_id]
+    except KeyError:
+        raise ValueError(f"task version {env_id!r} does not exist in this version of the package "
+                         f"(it has {', '.join(VERSIONS)})") from None
+
+
+__all__ = ["LATEST", "VERSIONS", "TaskVersion", "task_version"]

@@ -1,0 +1,166 @@
+"""Fixed evaluation suite of an attitude controller (SPEC section 4 item 2 and training-style
+episodes): the trained policy, or any controller of the shared interface (the PID baseline), on
+identical episodes.
+
+1. Doublets (Fig. 9) at 500 m, 5,000 m and 15,000 m, EAS 10 m/s, no delay, noise, turbulence or
+   parameter change, from a slightly perturbed trimmed start. The references, one channel at a time:
+
+   | time, s | roll_cmd | pitch_cmd | EAS_cmd |
+   |---|---|---|---|
+   | 0-5 | 0 | 0 | 10 |
+   | 5-15 / 15-25 | +5 / -5 deg | 0 | 10 |
+   | 30-40 / 40-50 | 0 | +5 / -5 deg | 10 |
+   | 50-60 / 60-70 | 0 | 0 | 11 / 9 m/s |
+   | to 80 | 0 | 0 | 10 |
+
+   Per channel: RMSE, the steady-state error after each step (mean absolute error over the last
+   2 s before the next change) and the 90 % settling time (from the step until the error stays
+   within 10 % of the step size); the sideslip RMSE; Sm of each actuator.
+2. ``episodes`` seeded training-style episodes with every disturbance on: mean normalised return,
+   episodes that ended early and why, RMSE per channel and Sm per actuator.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from jsbsim_env.control.base import AttitudeController
+from jsbsim_env.sim.core import CoreConfig, termination_reason
+from jsbsim_env.task.metrics import EpisodeRecorder
+from jsbsim_env.task.attitude import AttitudeTaskBatch, TaskConfig, action_to_command, command_to_action
+
+DOUBLET_ALTITUDES_M = (500.0, 5000.0, 15000.0)
+DOUBLET_END_S = 80.0
+# (channel, start time s, value); channels 0 roll (rad), 1 pitch (rad), 2 EAS (m/s).
+_D = math.radians
+DOUBLET_STEPS = ((0, 5.0, _D(5)), (0, 15.0, _D(-5)), (0, 25.0, 0.0), (1, 30.0, _D(5)), (1, 40.0, _D(-5)),
+                 (1, 50.0, 0.0), (2, 50.0, 11.0), (2, 60.0, 9.0), (2, 70.0, 10.0))
+EVAL_EPISODE_SEED = 777
+
+
+def doublet_goal(time_s: float) -> np.ndarray:
+    goal = np.array([0.0, 0.0, 10.0])
+    for channel, start, value in DOUBLET_STEPS:
+        if time_s >= start:
+            goal[channel] = value
+    return goal
+
+
+def fly(controller: AttitudeController, batch: AttitudeTaskBatch, seed: int, steps: int, goal_fn=None,
+        **overrides) -> tuple[EpisodeRecorder, dict]:
+    """One episode of aircraft 0 of ``batch`` under ``controller``, which sees only the measured
+    state and the goal; ``goal_fn(time_s)`` scripts the goal."""
+    controller.reset()
+    batch.reset_one(0, seed, **overrides)
+    core = batch.cores[0]
+    rec = EpisodeRecorder()
+    total, end = 0.0, {"terminated": False, "truncated": False, "reason": "", "steps": 0}
+    for k in range(steps):
+        if goal_fn is not None:
+            batch.set_goal(0, goal_fn(core.time_s))
+        goal = batch.goals[0].copy()
+        # The controller is told the episode's control interval, as a flight computer knows its loop rate.
+        command = controller.update(core.setup.control_interval_s, batch.measurements()[0], goal)
+        action = np.clip(command_to_action(command), -1.0, 1.0)
+        _, terms, terminated, truncated, codes = batch.step(action[None])
+        total += terms[0, 4]
+        rec.record(core.time_s, batch.states[0], goal, action_to_command(action), terms[0, :4])
+        end["steps"] = k + 1
+        if terminated[0] or truncated[0]:
+            end.update(terminated=bool(terminated[0]), truncated=bool(truncated[0]),
+                       reason=termination_reason(int(codes[0]), batch.config.core.envelope) or "")
+            break
+    end["return"] = total
+    return rec, end
+
+
+def step_response_metrics(rec: EpisodeRecorder) -> dict:
+    """Steady-state error and 90 % settling time of each scripted step (see the module docstring)."""
+    a = rec.arrays()
+    t, s = a["time_s"], a["true_state"]
+    signals = {0: np.degrees(s[:, 1]), 1: np.degrees(s[:, 2]), 2: s[:, 6]}
+    scale = {0: math.degrees(1.0), 1: math.degrees(1.0), 2: 1.0}
+    names = {0: "roll_deg", 1: "pitch_deg", 2: "airspeed_eas_mps"}
+    out: dict[str, list] = {f"steady_state_error_{n}": [] for n in names.values()}
+    out.update({f"settling_time_90_s_{n}": [] for n in names.values()})
+    for idx, (channel, start, value) in enumerate(DOUBLET_STEPS):
+        later = [st for ch, st, _ in DOUBLET_STEPS[idx + 1:] if ch == channel]
+        stop = later[0] if later else DOUBLET_END_S
+        previous = [v for ch, st, v in DOUBLET_STEPS[:idx] if ch == channel]
+        before = previous[-1] if previous else (10.0 if channel == 2 else 0.0)
+        size = abs(value - before) * scale[channel]
+        target = value * scale[channel]
+        window = (t > start) & (t <= stop)
+        err = np.abs(signals[channel][window] - target)
+        tail = (t > stop - 2.0) & (t <= stop)
+        tail_err = np.abs(signals[channel][tail] - target)
+        out[f"steady_state_error_{names[channel]}"].append(float(tail_err.mean()) if tail_err.size else math.nan)
+        outside = np.flatnonzero(err > 0.1 * size)
+        if err.size == 0:
+            settle = math.nan  # the episode ended before this step
+        elif outside.size == 0:
+            settle = 0.0
+        elif outside[-1] == err.size - 1:
+            settle = math.nan  # still outside the band when the next step comes
+        else:
+            settle = float(t[window][outside[-1] + 1] - start)
+        out[f"settling_time_90_s_{names[channel]}"].append(settle)
+    return out
+
+
+def doublet_runs(controller: AttitudeController, altitudes_m=DOUBLET_ALTITUDES_M, plot_dir: Path | None = None,
+                 prefix: str = "doublets") -> dict:
+    """SPEC section 4 item 2: the scripted doublets from a slightly perturbed start at each altitude,
+    no delay, noise or perturbation of the aircraft. Returns metrics per altitude; writes the
+    Fig. 9 plots and time histories to ``plot_dir``."""
+    results = {}
+    ideal = CoreConfig.ideal(perturb_attitude_deg=2.0, perturb_rate_degps=1.0, perturb_eas_mps=0.5,
+                             max_steps=int(DOUBLET_END_S / 0.05) + 1)
+    batch = AttitudeTaskBatch(1, TaskConfig(core=ideal))
+    steps = int(DOUBLET_END_S / 0.05)
+    for altitude in altitudes_m:
+        rec, end = fly(controller, batch, seed=int(altitude), steps=steps, goal_fn=doublet_goal, altitude_m=altitude,
+                       airspeed_eas_mps=10.0)
+        results[f"{altitude:.0f}m"] = {**rec.tracking_metrics(), **step_response_metrics(rec),
+                                       "ended_early": end["terminated"], "termination": end["reason"]}
+        if plot_dir is not None:
+            Path(plot_dir).mkdir(parents=True, exist_ok=True)
+            rec.plot(Path(plot_dir) / f"{prefix}_{altitude:.0f}m.png", f"Doublets at {altitude:.0f} m, EAS 10 m/s")
+            rec.save(Path(plot_dir) / f"{prefix}_{altitude:.0f}m.npz")
+    return results
+
+
+def evaluate(controller: AttitudeController, episodes: int = 50, plot_dir: Path | None = None,
+             progress: bool = False) -> dict:
+    """Run the whole suite; returns the metrics (and writes the Fig. 9 plots to ``plot_dir``)."""
+    return {"doublets": doublet_runs(controller, DOUBLET_ALTITUDES_M, plot_dir),
+            "episodes": suite_episodes(controller, episodes, progress)}
+
+
+def suite_episodes(controller: AttitudeController, episodes: int = 50, progress: bool = False) -> dict:
+    """The suite's seeded training-style episodes alone: mean metrics and return, early ends."""
+    batch = AttitudeTaskBatch(1, TaskConfig())
+    rows, early, reasons = [], 0, []
+    iterator = range(episodes)
+    if progress:
+        from tqdm import tqdm
+
+        iterator = tqdm(iterator, desc="episodes")
+    for k in iterator:
+        rec, end = fly(controller, batch, seed=EVAL_EPISODE_SEED + k, steps=batch.config.core.max_steps)
+        rows.append({**rec.tracking_metrics(), "return_norm": end["return"] / batch.config.core.max_steps,
+                     "length": end["steps"]})
+        if end["terminated"]:
+            early += 1
+            reasons.append(end["reason"])
+    return {
+        "count": episodes, "ended_early": early, "reasons": sorted(set(reasons)),
+        **{f"mean_{k}": float(np.mean([r[k] for r in rows])) for k in rows[0]},
+    }
+
+
+__all__ = ["DOUBLET_ALTITUDES_M", "doublet_goal", "doublet_runs", "evaluate", "fly", "step_response_metrics",
+           "suite_episodes"]

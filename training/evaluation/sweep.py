@@ -1,0 +1,186 @@
+"""Robustness sweeps: controllers flown over a grid of conditions on identical seeded episodes.
+
+Each axis changes one setting of the flight core from the training setting (SPEC sections 2-3,
+every disturbance on); a grid is every combination of the axes' values. Every controller flies
+the same ``episodes`` seeded training-style episodes (random goals, start perturbation) under
+each condition, so the rows differ only by the controller. The work is cut into the same jobs
+whatever the backend, and each job starts from an empty trim table, so the numbers do not
+depend on how the jobs are spread over processes.
+
+| axis | unit | what it sets |
+|---|---|---|
+| delay_ms | ms | control delay, fixed |
+| control_interval_ms | ms | control interval, fixed |
+| noise_scale | x Table 3 | sensor-noise sigmas |
+| parameter_strength | x Table 4 | distance of each coefficient draw from 1 (0: nominal aircraft) |
+| turbulence_sigma_mps | m/s | Dryden intensity on each axis (0: calm) |
+| backlash_deg | deg | servo backlash |
+| servo_rate_limit_degps | deg/s | every surface servo's rate limit (SPEC: 100) |
+| altitude_m | m | start altitude, fixed |
+| eas_mps | m/s | start EAS, fixed |
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from jsbsim_env.sim.core import CoreConfig
+from jsbsim_env.task.attitude import AttitudeTaskBatch, TaskConfig
+from training.ray_session import ray_session
+
+SWEEP_EPISODE_SEED = 31_000  # episode k of every condition uses seed SWEEP_EPISODE_SEED + k
+
+
+def _fixed(name: str, scale: float = 1.0) -> Callable[[CoreConfig, float], CoreConfig]:
+    return lambda core, v: replace(core, **{name: (v * scale, v * scale)})
+
+
+AXES: dict[str, Callable[[CoreConfig, float], CoreConfig]] = {
+    "delay_ms": _fixed("delay_s", 1e-3),
+    "control_interval_ms": _fixed("control_interval_s", 1e-3),
+    "noise_scale": lambda core, v: replace(core, noise_scale=v, sensor_noise=v > 0.0),
+    "parameter_strength": lambda core, v: replace(core, parameter_strength=v),
+    "turbulence_sigma_mps": lambda core, v: replace(core, turbulence=v > 0.0, turbulence_sigma_mps=max(v, 1e-9)),
+    "backlash_deg": lambda core, v: replace(core, backlash_deg=v),
+    "servo_rate_limit_degps": lambda core, v: replace(core, servo_rate_limit_degps=v),
+    "altitude_m": _fixed("altitude_range_m"),
+    "eas_mps": _fixed("eas_range_mps"),
+}
+AXIS_UNITS = {"delay_ms": "ms", "control_interval_ms": "ms", "noise_scale": "x Table 3",
+              "parameter_strength": "x Table 4", "turbulence_sigma_mps": "m/s", "backlash_deg": "deg",
+              "servo_rate_limit_degps": "deg/s", "altitude_m": "m", "eas_mps": "m/s"}
+
+
+def parse_axis(text: str) -> tuple[str, list[float]]:
+    """``"delay_ms=0,100,200"`` -> ("delay_ms", [0.0, 100.0, 200.0])."""
+    name, _, values = text.partition("=")
+    name = name.strip()
+    if name not in AXES:
+        raise ValueError(f"unknown axis {name!r}: choose from {', '.join(AXES)}")
+    try:
+        parsed = [float(v) for v in values.split(",") if v.strip()]
+    except ValueError:
+        raise ValueError(f"axis {name}: values must be numbers separated by commas, got {values!r}") from None
+    if not parsed or not all(math.isfinite(v) for v in parsed):
+        raise ValueError(f"axis {name} needs at least one finite value, got {values!r}")
+    return name, parsed
+
+
+def grid(axes: dict[str, list[float]]) -> list[dict[str, float]]:
+    """Every combination of the axes' values, in the order given (the last axis varies fastest)."""
+    names = list(axes)
+    return [dict(zip(names, combo)) for combo in itertools.product(*(axes[n] for n in names))]
+
+
+def condition_config(condition: dict[str, float], base: CoreConfig | None = None) -> TaskConfig:
+    """The task of one condition: the training setting with each axis applied."""
+    core = base or CoreConfig()
+    for name, value in condition.items():
+        core = AXES[name](core, float(value))
+    return TaskConfig(core=core)
+
+
+@dataclass(frozen=True)
+class Job:
+    """Episodes ``first .. first + count - 1`` of one controller under one condition."""
+
+    controller: str
+    condition: dict
+    first: int
+    count: int
+
+
+def run_job(job: Job, policy: str | None = None) -> list[dict]:
+    """Fly a job's episodes; one row per episode (the table's schema: ``ROW_FIELDS``)."""
+    from jsbsim_env.sim.trim_table import TrimTable
+    from jsbsim_env.control.factory import make_controller
+    from training.evaluation.suite import fly
+
+    TrimTable.forget_shared()  # the job's numbers must not depend on what this process flew before
+    controller = make_controller(job.controller, policy)
+    batch = AttitudeTaskBatch(1, condition_config(job.condition))
+    rows = []
+    for k in range(job.first, job.first + job.count):
+        rec, end = fly(controller, batch, seed=SWEEP_EPISODE_SEED + k, steps=batch.config.core.max_steps)
+        metrics = rec.tracking_metrics()
+        a = rec.arrays()
+        tail = a["time_s"] >= a["time_s"][-1] - 2.0  # the episode's last 2 s
+        err = np.degrees(np.abs(a["true_state"][tail][:, 1:3] - a["goal"][tail][:, :2]))
+        rows.append({
+            "controller": job.controller, **{f"axis_{n}": v for n, v in job.condition.items()}, "episode": k,
+            "return_norm": end["return"] / batch.config.core.max_steps, "ended_early": bool(end["terminated"]),
+            "end_reason": end["reason"], "steps": end["steps"],
+            **{k2: metrics[k2] for k2 in ("rmse_roll_deg", "rmse_pitch_deg", "rmse_airspeed_eas_mps", "rmse_beta_deg")},
+            "final_error_roll_deg": float(err[:, 0].mean()), "final_error_pitch_deg": float(err[:, 1].mean()),
+            **{k2: metrics[k2] for k2 in metrics if k2.startswith("smoothness_")},
+        })
+    return rows
+
+
+def jobs_for(controllers: Iterable[str], conditions: list[dict], episodes: int, chunk: int = 5) -> list[Job]:
+    """The work, cut into jobs of at most ``chunk`` episodes."""
+    return [Job(c, cond, first, min(chunk, episodes - first))
+            for c in controllers for cond in conditions for first in range(0, episodes, chunk)]
+
+
+def run_local(jobs: list[Job], policy: str | None = None, workers: int = 1, progress=None) -> list[dict]:
+    """Run ``jobs`` in ``workers`` processes (1: in this one); rows in job order."""
+    if workers <= 1:
+        out = []
+        for job in jobs:
+            out += run_job(job, policy)
+            if progress is not None:
+                progress(1)
+        return out
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    results: list[list[dict]] = [[] for _ in jobs]
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        futures = {pool.submit(run_job, job, policy): i for i, job in enumerate(jobs)}
+        for future in as_completed(futures):
+            results[futures[future]] = future.result()
+            if progress is not None:
+                progress(1)
+    return [row for rows in results for row in rows]
+
+
+def run_ray(jobs: list[Job], policy: str | None = None, address: str | None = None, progress=None,
+            info: dict | None = None) -> list[dict]:
+    """Run ``jobs`` as Ray tasks: a local Ray instance (started and shut down here) unless
+    ``address`` names a cluster (``"auto"``: the one this machine belongs to). ``info``, where
+    given, receives the cluster's CPUs (``"cpus"``)."""
+    with ray_session(address) as ray:
+        if info is not None:
+            info["cpus"] = float(ray.cluster_resources().get("CPU", 1.0))
+        task = ray.remote(num_cpus=1)(run_job)
+        refs = [task.remote(job, policy) for job in jobs]
+        index = {ref: i for i, ref in enumerate(refs)}
+        results: list[list[dict]] = [[] for _ in jobs]
+        pending = list(refs)
+        while pending:
+            done, pending = ray.wait(pending, num_returns=1)
+            results[index[done[0]]] = ray.get(done[0])
+            if progress is not None:
+                progress(1)
+        return [row for rows in results for row in rows]
+
+
+def breaking_points(rows: list[dict], axis: str) -> dict[str, float | None]:
+    """Per controller, the smallest value of ``axis`` at which an episode ended early (None: never)."""
+    out: dict[str, float | None] = {}
+    for row in rows:
+        out.setdefault(row["controller"], None)
+    for row in rows:
+        if row["ended_early"]:
+            v, c = row[f"axis_{axis}"], row["controller"]
+            out[c] = v if out[c] is None else min(out[c], v)
+    return out
+
+
+__all__ = ["AXES", "AXIS_UNITS", "Job", "breaking_points", "condition_config", "grid", "jobs_for", "parse_axis",
+           "run_job", "run_local", "run_ray"]
