@@ -67,10 +67,10 @@ class RouteConfig:
     turbulence_intensity: str = "paper"  # or a MIL-F-8785C severity (CoreConfig.turbulence_intensity)
     turbulence_sigma_mps: float = 0.5
     turbulence_clip: str = "4sigma"  # or "paper" (CoreConfig.turbulence_clip)
-    parameters: str = "nominal"  # or "positive", "negative" (SPEC Table 9), or dist.RANDOMISED
+    parameters: str = "nominal"  # or "positive", "negative" (the paper's Table 9), or dist.RANDOMISED
     backlash_deg: float = 0.0
     sensor_noise: bool = True
-    # SPEC Table 3 sigmas, but mean-reverting: the training setting's rate 0 is a random walk that
+    # The paper's Table 3 sigmas, but mean-reverting: the training setting's rate 0 is a random walk that
     # drifts about 1 deg of attitude in 40 minutes, where an INS (Table 5: within 0.1 deg) does
     # not drift. At 1/s the stationary attitude noise is sigma / sqrt(2) = 0.04 deg.
     noise_reversion_per_s: float = 1.0

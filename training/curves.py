@@ -1,4 +1,4 @@
-"""Training curves (SPEC Fig. 8) and per-run summaries from a run folder's ``progress.csv``.
+"""Training curves (the paper's Fig. 8) and per-run summaries from a run folder's ``progress.csv``.
 
 ``run_summary`` gives a run's training wall-clock, its final evaluation return (the mean of the
 last ``final_evals`` evaluations, since one evaluation is noisy), the environment steps at which
@@ -42,7 +42,7 @@ def run_summary(run_dir: Path, final_evals: int = 3) -> dict:
 
 
 def plot_curves(runs: list[Path], out: Path) -> None:
-    """SPEC Fig. 8 from the runs' ``progress.csv``: episode length, training and evaluation return
+    """the paper's Fig. 8 from the runs' ``progress.csv``: episode length, training and evaluation return
     against environment steps, and the evaluation return against wall-clock; mean and min-max."""
     import matplotlib
 

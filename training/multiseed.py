@@ -1,5 +1,5 @@
 """Several seeds of one configuration, each its own run (folder, checkpoints, resume), as Ray tasks
-or in a process pool, with a summary over the seeds at the end (SPEC Fig. 8 with its spread).
+or in a process pool, with a summary over the seeds at the end (the paper's Fig. 8 with its spread).
 
 Each seed trains in ``RUN_ROOT/<name>_seed<N>`` on one torch thread. Running the same command
 again resumes every seed from its checkpoint, so a killed batch loses at most one checkpoint

@@ -367,9 +367,9 @@ def evaluate_policy(policy, task_config: TaskConfig, episodes: int = 8, max_step
     """The evaluation a run makes every ``log.eval_every_frames`` (its best policy is kept by it):
     fly ``episodes`` episodes side by side with the deterministic policy, each once.
 
-    Returns the mean normalised return (episode reward / max_steps, SPEC Fig. 8; always with Eq. 22's
+    Returns the mean normalised return (episode reward / max_steps, the paper's Fig. 8; always with Eq. 22's
     reward and the policy on the throttle, whatever reward weights, penalty tail and external throttle the run
-    trains with; ``Trainer`` passes SPEC's disturbances, whatever turbulence and delay it trains in), the mean
+    trains with; ``Trainer`` passes the paper's disturbances, whatever turbulence and delay it trains in), the mean
     episode length and the number of episodes that ended early (terminated, not truncated).
     """
     plain = dataclasses.replace(task_config, sideslip_weight=1.0, roll_weight=1.0, pitch_weight=1.0, penalty_tail=0.0,

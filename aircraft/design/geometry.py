@@ -3,7 +3,7 @@
 Frame: JSBSim's structural frame, which is also AeroSandbox's geometry frame: x aft, y out of the
 right wing, z up, in metres, origin at the wing root leading edge.
 
-The published figures (SPEC Table 1: span 35 m, area 78.5 m², aspect ratio 15.6, chord 2.27 m,
+The published figures (the paper's Table 1: span 35 m, area 78.5 m², aspect ratio 15.6, chord 2.27 m,
 mass 359 kg, the inertia tensor) are kept exactly. What the paper does not publish (airfoil, planform
 break, tails, control-surface sizes, propellers) is chosen here as a conventional layout for a
 high-altitude solar aircraft of this size, each value with the reason beside it.
@@ -21,8 +21,8 @@ class WingGeometry:
     """Main wing: a rectangular centre section and tapered outer panels with dihedral and washout."""
 
     airfoil: str = "fx63137"  # Wortmann FX 63-137: the classic high-lift low-Reynolds section of solar aircraft
-    span_m: float = 35.0  # SPEC Table 1
-    area_m2: float = 78.5  # SPEC Table 1
+    span_m: float = 35.0  # the paper's Table 1
+    area_m2: float = 78.5  # the paper's Table 1
     kink_y_m: float = 8.75  # end of the rectangular centre section (half of the semi-span)
     root_chord_m: float = 2.40  # centre-section chord; the tip chord follows from the area
     outer_dihedral_deg: float = 5.0  # outer panels only: roll stability (Clβ < 0) with a flat centre
@@ -121,13 +121,13 @@ class AircraftGeometry:
         (2.6, 0.10),
         (10.6, 0.07),
     )
-    reference_area_m2: float = 78.5  # SPEC Table 1
-    reference_span_m: float = 35.0  # SPEC Table 1
-    reference_chord_m: float = 2.27  # SPEC Table 1
+    reference_area_m2: float = 78.5  # the paper's Table 1
+    reference_span_m: float = 35.0  # the paper's Table 1
+    reference_chord_m: float = 2.27  # the paper's Table 1
     static_margin: float = 0.15  # the centre of gravity sits 15 % MAC ahead of the neutral point
     cg_z_m: float = 0.0  # in the wing plane, on the propeller thrust line (thrust gives no pitching moment)
-    mass_kg: float = 359.0  # SPEC Table 1
-    # SPEC Table 1, kg·m²; ixz is the product of inertia ∫xz dm (flight-dynamics sign convention).
+    mass_kg: float = 359.0  # the paper's Table 1
+    # The paper's Table 1, kg·m²; ixz is the product of inertia ∫xz dm (flight-dynamics sign convention).
     inertia_kg_m2: tuple[float, float, float, float] = (15221.0, 1827.5, 16967.0, 37.0)
     propeller: PropellerGeometry = field(default_factory=PropellerGeometry)
     # Four rotors on the wing leading edge, outboard pairs counter-rotating so torques cancel.
@@ -146,14 +146,14 @@ class AircraftGeometry:
     # four), which sets the climb margin there; full throttle is this power (Systems/rotor_speed.xml).
     motor_max_power_w: float = 5000.0
     esc_time_constant_s: float = 0.03  # closed speed loop of the motor controller
-    rotor_time_constant_s: float = 0.2  # SPEC §1 (throttle lag)
-    rotor_rate_limit_rpm_per_s: float = 480.0  # SPEC §1
+    rotor_time_constant_s: float = 0.2  # the paper's Section 2.3 (throttle lag)
+    rotor_rate_limit_rpm_per_s: float = 480.0  # the paper's Section 2.3
     motor_efficiency: float = 0.85  # shaft power over electric power, for the power read-out only
-    surface_time_constant_s: float = 0.02  # SPEC §1
-    surface_rate_limit_deg_per_s: float = 100.0  # SPEC §1
-    aileron_limit_deg: float = 30.0  # SPEC §1
-    elevator_limit_deg: float = 30.0  # SPEC §1
-    rudder_limit_deg: float = 20.0  # SPEC §1
+    surface_time_constant_s: float = 0.02  # the paper's Section 2.3
+    surface_rate_limit_deg_per_s: float = 100.0  # the paper's Section 2.3
+    aileron_limit_deg: float = 30.0  # the paper's Section 2.3
+    elevator_limit_deg: float = 30.0  # the paper's Section 2.3
+    rudder_limit_deg: float = 20.0  # the paper's Section 2.3
     # Landing gear: a nose skid, two main wheels under the pod, a tail skid; wing tips and the fin
     # tip as STRUCTURE points that report a ground strike. Springs sized for 359 kg.
     contacts: tuple[ContactPoint, ...] = (

@@ -118,7 +118,7 @@ def metrics(g: AircraftGeometry, data: dict) -> str:
 def mass_balance(g: AircraftGeometry, data: dict) -> str:
     ixx, iyy, izz, ixz = g.inertia_kg_m2
     cg = (data["stability"]["cg_x_m"], 0.0, g.cg_z_m)
-    return HEADER + f"""<!-- SPEC Table 1. The CG sits {fmt(100 * g.static_margin)} % MAC ahead of the neutral point
+    return HEADER + f"""<!-- the paper's Table 1. The CG sits {fmt(100 * g.static_margin)} % MAC ahead of the neutral point
      (x = {fmt(data["stability"]["neutral_point_x_m"])} m). ixz is the product of inertia Ixz = integral of x z dm in body
      axes ({fmt(ixz)} kg m2). With negated_crossproduct_inertia="false" JSBSim holds -ixz in its inertia
      tensor, so get_J()[0,2], inertia/ixz-slugs_ft2 and the mass-properties report read {fmt(-ixz)};
@@ -371,7 +371,7 @@ def rotor_speed_system(g: AircraftGeometry, data: dict) -> str:
                      full_throttle_speed_rpm(g, data), "        ")
     return HEADER + f"""<!-- Speed-commanded electric drive. The throttle command sets a rotor-speed reference,
      throttle x the full-throttle speed, that follows a first-order lag of {fmt(g.rotor_time_constant_s)} s with a
-     {fmt(g.rotor_rate_limit_rpm_per_s)} rpm/s rate limit (SPEC section 1). Each motor's speed controller (ESC) delivers the
+     {fmt(g.rotor_rate_limit_rpm_per_s)} rpm/s rate limit (the paper's Section 2 and Table 1). Each motor's speed controller (ESC) delivers the
      propeller's absorbed power plus a correction proportional to the speed error, closing the
      rotor-speed loop with a {fmt(g.esc_time_constant_s)} s time constant, up to the motor's
      {fmt(g.motor_max_power_w)} W. All rotors share the one command.
@@ -471,7 +471,7 @@ def flight_control(g: AircraftGeometry) -> str:
       <gain> -1 </gain>
     </pure_gain>
   </channel>"""
-    return HEADER + f"""<!-- Control surfaces (SPEC section 1): command (normalised, JSBSim trim inputs added) -> degrees
+    return HEADER + f"""<!-- Control surfaces (the paper's Section 2 and Table 1): command (normalised, JSBSim trim inputs added) -> degrees
      -> backlash -> servo (first-order lag T = {fmt(g.surface_time_constant_s)} s, rate limit {rate} deg/s, travel limits).
      Signs: elevator trailing edge down positive; rudder trailing edge left positive; aileron
      command positive puts the right aileron down and the left aileron up (each side's position

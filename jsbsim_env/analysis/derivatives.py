@@ -7,7 +7,7 @@ derivatives are central differences of the total aerodynamic forces and moments 
 
 Conventions: forces as coefficients in wind axes (CL, CD, CY), moments in body axes (Cl, Cm, Cn),
 angles in radians, rates non-dimensional (p b/2V, q c/2V, r b/2V, alpha-dot c/2V), controls per
-radian of deflection in the SPEC sign conventions (elevator trailing edge down, rudder trailing
+radian of deflection in the the paper's sign conventions (elevator trailing edge down, rudder trailing
 edge left, aileron right surface down).
 
 JSBSim computes alpha-dot from the body accelerations, so every perturbed state also carries an

@@ -1,4 +1,4 @@
-"""Actuator effectiveness against altitude at a fixed equivalent airspeed (SPEC Fig. 10).
+"""Actuator effectiveness against altitude at a fixed equivalent airspeed (the paper's Fig. 10).
 
 At each altitude the aircraft is trimmed; then, at the trimmed state,
 
@@ -68,7 +68,7 @@ PANELS = (("aileron", "roll"), ("elevator", "pitch"), ("rudder", "yaw"))
 
 
 def plot_effectiveness(rows: list[dict], path) -> None:
-    """SPEC Fig. 10 from ``effectiveness`` rows, as a PNG."""
+    """the paper's Fig. 10 from ``effectiveness`` rows, as a PNG."""
     import matplotlib
 
     matplotlib.use("Agg")

@@ -33,7 +33,7 @@ G_MPS2 = 9.80665
 class L1Params:
     period_s: float = 25.0  # NAV_L1_PERIOD (PX4 default 20; longer for this slow, large aircraft)
     damping: float = 0.75  # NAV_L1_DAMPING (PX4 default)
-    roll_limit_rad: float = math.radians(5.0)  # SPEC roll_cmd range
+    roll_limit_rad: float = math.radians(5.0)  # the paper's roll_cmd range (Table 2)
     linear_heading_deg: float = 6.0  # the roll limit clips the demand from no smaller a heading error (module doc)
 
     def __post_init__(self):

@@ -8,7 +8,7 @@
 | yaw | rudder = q_s (k_r washout(r) + k_beta beta); the washout (2 s) lets steady turns be |
 
 Positive elevator pitches the nose down, positive aileron rolls left and positive rudder yaws
-left (SPEC sign conventions), hence the signs. The gains come from ``tuning`` at each altitude
+left (the paper's sign conventions), hence the signs. The gains come from ``tuning`` at each altitude
 of ``DESIGN_ALTITUDES_M`` at EAS 10 m/s and are stored, with the trim data TECS uses, in
 ``pid_gains.json``
 (``scripts/tune_pid.py`` writes it). In flight they are interpolated in altitude, and the

@@ -43,7 +43,7 @@ class TECSParams:
     speed_weight: float = 1.0  # FW_T_SPDWEIGHT: 0 height only ... 2 speed only
     max_climb_mps: float = 1.0  # FW_T_CLMB_MAX (here: a gentle climb for a 10 m/s EAS glider-like aircraft)
     max_sink_mps: float = 1.5  # FW_T_SINK_MAX (here, as above)
-    pitch_limits_rad: tuple[float, float] = (math.radians(-10.0), math.radians(10.0))  # SPEC theta_cmd range
+    pitch_limits_rad: tuple[float, float] = (math.radians(-10.0), math.radians(10.0))  # the paper's theta_cmd range (Table 2)
     vert_accel_limit_mps2: float = 2.0  # FW_T_VERT_ACC (PX4: 7; gentler for this airframe)
     throttle_limits: tuple[float, float] = (0.0, 1.0)
     speed_rate_filter_s: float = 0.5  # first-order filter on the differentiated airspeed

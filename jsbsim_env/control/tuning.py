@@ -2,14 +2,14 @@
 
 At a design point (altitude, EAS) the aircraft is trimmed and linearised on JSBSim's equations
 (``jsbsim_env.analysis.modes``: the longitudinal and lateral-directional 4x4 blocks and their input
-columns). Each block gets the actuators as first-order lags (SPEC Eq. 11), is discretised with a
+columns). Each block gets the actuators as first-order lags (the paper's Eq. 11), is discretised with a
 zero-order hold at the controller's rate, and is closed with the discrete PID laws of
 ``pid.PIDAttitudeController`` and a transport delay of whole control steps. The gains minimise
 
 * the integral of time-weighted absolute error (ITAE) of reference steps: 2 deg of pitch and
   1 m/s of EAS for the longitudinal loops, 5 deg of roll for the lateral ones, with the
   sideslip of the roll step weighted in too;
-* plus the actuator motion the sensor noise of SPEC Table 3 would cause through the gains, so
+* plus the actuator motion the sensor noise of the paper's Table 3 would cause through the gains, so
   that rate gains do not grow without bound,
 
 subject to robustness: the closed loop stays stable (spectral radius below 1) with every gain
@@ -30,7 +30,7 @@ from scipy.optimize import minimize
 from jsbsim_env.analysis.modes import control_derivatives, linearise
 from jsbsim_env.sim.simulation import Simulation
 
-SURFACE_LAG_S = 0.02  # SPEC Eq. 11
+SURFACE_LAG_S = 0.02  # the paper's Eq. 11
 THROTTLE_LAG_S = 0.2
 WASHOUT_S = 2.0  # yaw damper washout: it damps the Dutch roll but lets steady turns be
 CONTROL_RATE_HZ = 25.0
@@ -41,7 +41,7 @@ STEP_PITCH_RAD = math.radians(2.0)
 STEP_EAS_MPS = 1.0
 STEP_ROLL_RAD = math.radians(5.0)
 RESPONSE_S = 20.0
-NOISE_RAD = 1e-3  # SPEC Table 3: attitude, rate and flow-angle noise sigma
+NOISE_RAD = 1e-3  # the paper's Table 3: attitude, rate and flow-angle noise sigma
 NOISE_EAS_MPS = 0.01
 NOISE_WEIGHT = 20.0  # cost per deg (or per 0.1 throttle) of noise-driven command
 SIDESLIP_WEIGHT = 0.5  # cost per deg s of sideslip during the roll step, against roll ITAE

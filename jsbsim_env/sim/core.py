@@ -4,7 +4,7 @@ Every controller (the SAC policy, the PID baseline, the TECS/L1 missions) flies 
 so all see the same delay, noise, turbulence, parameter sets and backlash. It knows nothing about
 goals or rewards (``jsbsim_env.task.attitude``); it takes actuator commands and returns measurements.
 
-Timing, per episode (SPEC section 3):
+Timing, per episode (the paper's Section 3.4):
 
 * the control interval is drawn from ``control_interval_s`` and then fixed; control instant k is
   at k * interval exactly, and the simulation (fixed rate ``sim_rate_hz``, because JSBSim's
@@ -39,14 +39,14 @@ from jsbsim_env.sim.simulation import (
 )
 from jsbsim_env.sim.trim_table import TrimTable
 
-# The measured state (SPEC Eq. 18) in SI units: angles in rad, rates in rad/s, the three
+# The measured state (the paper's Eq. 18) in SI units: angles in rad, rates in rad/s, the three
 # surfaces as positions in rad, the throttle as the rotor-speed reference over the full-throttle speed (0..1).
 STATE_NAMES = ("altitude_m", "roll_rad", "pitch_rad", "p_radps", "q_radps", "r_radps", "airspeed_eas_mps",
                "alpha_rad", "beta_rad", "aileron_rad", "elevator_rad", "rudder_rad", "throttle")
 N_STATE = len(STATE_NAMES)
-# SPEC Table 3: OU noise sigma per state element (same order).
+# The paper's Table 3: OU noise sigma per state element (same order).
 NOISE_SIGMA = np.array([0.0, 1e-3, 1e-3, 1e-3, 1e-3, 1e-3, 0.01, 1e-3, 1e-3, 0.0, 0.0, 0.0, 0.0])
-# Command order and limits (SPEC Table 2): aileron, elevator, rudder in degrees, throttle 0..1.
+# Command order and limits (the paper's Table 2): aileron, elevator, rudder in degrees, throttle 0..1.
 COMMAND_LOW = np.array([-SURFACE_LIMITS_DEG["aileron"], -SURFACE_LIMITS_DEG["elevator"], -SURFACE_LIMITS_DEG["rudder"],
                         0.0])
 COMMAND_HIGH = -COMMAND_LOW + np.array([0.0, 0.0, 0.0, 1.0])
@@ -56,7 +56,7 @@ EARTH_RADIUS_M = 6_371_000.0  # mean radius: local north/east over a route of te
 
 @dataclass(frozen=True)
 class Envelope:
-    """Where an episode ends early (a documented flight envelope; SPEC section 1 and beyond)."""
+    """Where an episode ends early (a documented flight envelope: the paper's Section 2 and Table 1, and beyond)."""
 
     max_abs_roll_deg: float = 60.0
     max_abs_pitch_deg: float = 45.0
@@ -70,7 +70,7 @@ class Envelope:
 
 @dataclass(frozen=True)
 class CoreConfig:
-    """Disturbances and episode start. Defaults are SPEC's training setting (all disturbances on),
+    """Disturbances and episode start. Defaults are the paper's training setting (all disturbances on),
     but for the clip of the turbulence rates (``turbulence_clip``)."""
 
     sim_rate_hz: float = 120.0
@@ -80,7 +80,7 @@ class CoreConfig:
     noise_reversion_per_s: float = 0.0  # "mean-reversion rate 0 (as printed)"
     parameters: str = dist.RANDOMISED  # Table 4 draw, or a fixed set: "nominal", "positive", "negative"
     turbulence: bool = True
-    # "paper": turbulence_sigma_mps on each axis at every altitude (SPEC); or a MIL-F-8785C
+    # "paper": turbulence_sigma_mps on each axis at every altitude (the paper); or a MIL-F-8785C
     # severity, "light", "moderate" or "severe", whose intensity falls with altitude.
     turbulence_intensity: str = turb.PAPER
     turbulence_sigma_mps: float = 0.5
@@ -89,8 +89,8 @@ class CoreConfig:
     # rates at the clip 15-36 % of the time.
     turbulence_clip: str = "4sigma"
     backlash_deg: float = 0.0
-    servo_rate_limit_degps: float = 100.0  # every surface servo (SPEC section 1)
-    noise_scale: float = 1.0  # multiplies every SPEC Table 3 sigma (robustness sweeps)
+    servo_rate_limit_degps: float = 100.0  # every surface servo (the paper's Section 2 and Table 1)
+    noise_scale: float = 1.0  # multiplies every sigma of the paper's Table 3 (robustness sweeps)
     parameter_strength: float = 1.0  # multiplies each Table 4 draw's distance from 1 (0: nominal aircraft)
     altitude_range_m: tuple[float, float] = (500.0, 20000.0)
     eas_range_mps: tuple[float, float] = EAS_RANGE_MPS
@@ -347,24 +347,10 @@ class FlightCore:
         for s, v in zip(self._set_gust_rate, self._gust_rate[k]):
             s(gain * v)
 
-    def episode_conditions(self) -> list[float]:
-        """What a simulation knows and a flight computer does not, scaled to about 1: the delay and
-        control interval (s / 0.1 and s / 0.05), the coefficient scales ((s - 1) / 0.2, in
-        ``SCALED_TERMS`` order) and the turbulence now (winds / 2 m/s, rates / 1 deg/s, body axes).
-        For critics that learn in simulation only (``task.AttitudeTaskBatch.critic_states``)."""
-        setup = self.setup
-        out = [setup.delay_s / 0.1, setup.control_interval_s / 0.05]
-        out += [(setup.scales.get(term, 1.0) - 1.0) / 0.2 for term in SCALED_TERMS]
-        if self.turbulence is None:
-            return out + [0.0] * 6
-        k = min(self.step_index, len(self._gust_wind) - 1)
-        gain = self.turbulence_gain
-        return (out + [gain * w / 2.0 for w in self._gust_wind[k]]
-                + [gain * r / DEG_TO_RAD for r in self._gust_rate[k]])
-
     # ------------------------------------------------------------------ measurements
+
     def true_state(self) -> list[float]:
-        """The state of SPEC Eq. 18 without noise (see ``STATE_NAMES``) as a list."""
+        """The state of the paper's Eq. 18 without noise (see ``STATE_NAMES``) as a list."""
         g = self._get_state
         return [g[0](), g[1](), g[2](), g[3](), g[4](), g[5](), math.sqrt(g[13]() / RHO0_SLUG_FT3) * g[6]() * FT_TO_M,
                 g[7](), g[8](), g[9]() * DEG_TO_RAD, g[10]() * DEG_TO_RAD, g[11]() * DEG_TO_RAD,

@@ -15,7 +15,7 @@ import numpy as np
 
 
 class OrnsteinUhlenbeckNoise:
-    """Ornstein-Uhlenbeck noise per observed state element (SPEC Table 3).
+    """Ornstein-Uhlenbeck noise per observed state element (the paper's Table 3).
 
     dx = -reversion * x dt + sigma dW, integrated exactly over each step. With the reversion rate
     0 (the value the paper prints) it is a random walk whose increments over dt have standard
@@ -61,7 +61,7 @@ class OrnsteinUhlenbeckNoise:
 
 # ----------------------------------------------------------------------------- parameter sets
 
-# SPEC Table 4: per-episode draws, each coefficient independently, U(lo*xi, hi*xi).
+# The paper's Table 4: per-episode draws, each coefficient independently, U(lo*xi, hi*xi).
 RANDOMISATION_GROUPS: dict[str, tuple[tuple[str, ...], tuple[float, float]]] = {
     "inertia": (("I",), (0.95, 1.15)),
     "lift": (("CL0", "CLbeta", "CLde", "CLda", "CLdr", "CLq"), (0.8, 1.2)),
@@ -73,7 +73,7 @@ RANDOMISATION_GROUPS: dict[str, tuple[tuple[str, ...], tuple[float, float]]] = {
     "damping": (("Clp", "Clr", "Cmq", "Cnp", "Cnr"), (0.8, 1.2)),
 }
 
-# SPEC Table 9: fixed sets ("positive" and "negative" aircraft) for the perturbation study.
+# The paper's Table 9: fixed sets ("positive" and "negative" aircraft) for the perturbation study.
 _TABLE9_ROWS = (
     (("I",), 0.95, 1.05),
     (("CL0", "CLbeta", "CLde", "CLda", "CLdr", "CLq"), 1.10, 0.90),

@@ -25,7 +25,7 @@ RHO0_KG_M3 = 1.225  # sea-level density of the 1976 standard atmosphere
 RHO0_SLUG_FT3 = 0.0023768907688269184  # the same in JSBSim's units
 SLUG_FT3_TO_KG_M3 = 515.378818
 
-ALTITUDE_RANGE_M = (0.0, 20000.0)  # the flight envelope of the aircraft (SPEC section 1)
+ALTITUDE_RANGE_M = (0.0, 20000.0)  # the flight envelope of the aircraft (the paper's Section 2 and Table 1)
 # The ground under every simulation: 100 m below the envelope's floor, so that the aircraft trims
 # and flies at sea level with its landing gear clear, and an episode started there still has the
 # flight core's 50 m ground-strike margin (core.Envelope) before it ends.
@@ -79,7 +79,7 @@ class Inertia(NamedTuple):
     """Moments and product of inertia about the CG in body axes (x forward, y right, z down).
 
     Flight-dynamics convention: ``ixz_kg_m2`` is the product of inertia, the integral of x z dm
-    (SPEC Table 1: +37 kg m²); the inertia tensor holds -Ixz off its diagonal, so at zero body
+    (the paper's Table 1: +37 kg m²); the inertia tensor holds -Ixz off its diagonal, so at zero body
     rates Ixx pdot - Ixz rdot = L and Izz rdot - Ixz pdot = N. Ixy and Iyz, zero for this
     symmetric aircraft, are left out.
     """
@@ -147,7 +147,7 @@ class Simulation:
         self.fdm[name] = value
 
     def set_controls(self, aileron_deg: float, elevator_deg: float, rudder_deg: float, throttle: float) -> None:
-        """Command the surfaces (degrees, SPEC sign conventions) and the throttle (0..1)."""
+        """Command the surfaces (degrees, the paper's sign conventions) and the throttle (0..1)."""
         values = (aileron_deg / SURFACE_LIMITS_DEG["aileron"], elevator_deg / SURFACE_LIMITS_DEG["elevator"],
                   rudder_deg / SURFACE_LIMITS_DEG["rudder"], throttle)
         for name, value in zip(CONTROL_INPUTS, values):

@@ -26,7 +26,7 @@ KNOT_TO_MPS = 1852.0 / 3600.0
 
 # ----------------------------------------------------------------------------- intensity
 
-PAPER = "paper"  # sigma_mps on every axis at every altitude (SPEC section 3)
+PAPER = "paper"  # sigma_mps on every axis at every altitude (the paper's Section 3.4)
 # MIL-F-8785C section 3.7.2.3: the probability-of-exceedance curve of Fig. 7 each severity uses
 # above 2000 ft, and its wind at 20 ft below 1000 ft.
 SEVERITIES: dict[str, tuple[float, float]] = {  # name: (probability of exceedance, W20 in knots)
@@ -198,7 +198,7 @@ def stationary_std(b: np.ndarray, a: np.ndarray, input_variance: float) -> float
 # ----------------------------------------------------------------------------- series and clips
 
 CLIPS = ("4sigma", "paper")
-PAPER_WIND_CLIP_MPS = 2.0  # SPEC section 3: wind components clipped to +-2 m/s
+PAPER_WIND_CLIP_MPS = 2.0  # the paper's Section 3.4: wind components clipped to +-2 m/s
 PAPER_RATE_CLIP_RADPS = math.radians(0.3)  # and turbulence angular rates to +-0.3 deg/s
 # The paper's wind clip is 4 sigma at its 0.5 m/s (exceeded 0.006 % of the time); "4sigma" clips
 # every channel at 4 times its own stationary standard deviation, as rarely.

@@ -1,7 +1,7 @@
 """Evaluation helpers shared by every controller: tracking error, smoothness, episode recording.
 
 * ``rmse``: root-mean-square error of a signal against its reference.
-* ``smoothness``: Sm of SPEC section 4 item 5 (Mysore et al. 2021):
+* ``smoothness``: Sm of the paper's Section 5 (Mysore et al. 2021):
   Sm = 2 / (n fs) * sum_i M_i f_i over the FFT amplitudes M_i at frequencies f_i; lower is smoother.
 * ``EpisodeRecorder``: time histories of states, goals, commands and rewards, saved as ``.npz``
   and plotted like the paper's Fig. 9.
@@ -38,7 +38,7 @@ def actuator_smoothness(commands: np.ndarray, sample_rate_hz: float) -> dict[str
 
 
 def smoothness(signal: np.ndarray, sample_rate_hz: float) -> float:
-    """Sm = 2 / (n fs) * sum_i M_i f_i (SPEC section 4 item 5).
+    """Sm = 2 / (n fs) * sum_i M_i f_i (the paper's Section 5).
 
     M_i is the one-sided amplitude spectrum of the ``n`` samples (a sinusoid of amplitude A gives
     M = A at its frequency), f_i the bin frequencies, fs the sample rate. A constant signal gives

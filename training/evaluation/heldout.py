@@ -4,7 +4,7 @@ choosing among trained seeds without choosing on the report's own flights.
 | flight | route | scored |
 |---|---|---|
 | ``turbulent_5km`` | 5 km, legs 1-3 in turbulence, seed 101 | RMSE roll / pitch / sideslip over the turbulent legs |
-| ``positive_3km``, ``negative_3km`` | 3 km, calm, SPEC Table 9 aircraft, seed 102 | RMSE over the whole route |
+| ``positive_3km``, ``negative_3km`` | 3 km, calm, the paper's Table 9 aircraft, seed 102 | RMSE over the whole route |
 | ``calm_15km`` | 15 km, calm, seed 103 | mean absolute roll / pitch error on the straight legs |
 
 Beside the errors, the calm flight measures how much each surface moves on the straight legs

@@ -1,4 +1,4 @@
-"""The paper's experiments (SPEC section 4 items 2-8) as one report: ``report.md``, a PNG per
+"""The paper's experiments (the paper's Section 5) as one report: ``report.md``, a PNG per
 figure and ``metrics.json``.
 
 | item | experiment | figures |
@@ -36,7 +36,7 @@ EXPERIMENTS = ("doublets", "effectiveness", "route_10km", "perturbation", "altit
 CONTROLLERS = ("PID", "RL")
 ROUTE_SEED = 11
 
-# The paper's figures (SPEC section 4), for the tables.
+# The paper's figures (the paper's Section 5), for the tables.
 PAPER_TABLE8 = {
     "PID": {"rmse_roll_deg": 0.125, "rmse_pitch_deg": 0.193, "rmse_airspeed_eas_mps": 0.393, "rmse_beta_deg": 2.915,
             "smoothness_aileron": 9.50e-5, "smoothness_elevator": 4.48e-5, "smoothness_rudder": 0.0,

@@ -1,6 +1,6 @@
 """Robustness sweeps: controllers flown over a grid of conditions on identical seeded episodes.
 
-Each axis changes one setting of the flight core from the training setting (SPEC sections 2-3,
+Each axis changes one setting of the flight core from the training setting (the paper's Sections 2-3,
 every disturbance on); a grid is every combination of the axes' values. Every controller flies
 the same ``episodes`` seeded training-style episodes (random goals, start perturbation) under
 each condition, so the rows differ only by the controller. The work is cut into the same jobs
@@ -15,7 +15,7 @@ depend on how the jobs are spread over processes.
 | parameter_strength | x Table 4 | distance of each coefficient draw from 1 (0: nominal aircraft) |
 | turbulence_sigma_mps | m/s | Dryden intensity on each axis (0: calm) |
 | backlash_deg | deg | servo backlash |
-| servo_rate_limit_degps | deg/s | every surface servo's rate limit (SPEC: 100) |
+| servo_rate_limit_degps | deg/s | every surface servo's rate limit (the paper: 100) |
 | altitude_m | m | start altitude, fixed |
 | eas_mps | m/s | start EAS, fixed |
 """
