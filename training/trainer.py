@@ -50,6 +50,11 @@ CSV_FIELDS = ("frames", "updates", "wall_s", "env_steps_per_s", "episodes", "epi
               "eval_return_norm", "eval_length", "eval_early_ends")
 
 
+def _short(value) -> str:
+    """A progress-bar figure: three decimals, or blank where there is none yet."""
+    return f"{value:.3f}" if isinstance(value, float) and math.isfinite(value) else ""
+
+
 def resume_fingerprint(config: TrainConfig) -> str:
     """Settings that must be the same to resume: everything but logging, device, threads and length."""
     data = config.to_dict()
@@ -231,6 +236,7 @@ class Trainer:
         next_eval = _next_multiple(self.counters.frames, c.log.eval_every_frames)
         next_ckpt = _next_multiple(self.counters.frames, c.log.checkpoint_every_frames)
         row: dict = {}
+        last_eval: float | str = ""
         update_debt = 0.0
         stop: list[int] = []  # signals received (``_stop_on_signals``)
         with _stop_on_signals(stop):
@@ -265,9 +271,10 @@ class Trainer:
                             if key not in ("frames", "updates") and value != "" and value is not None:
                                 writer.add_scalar(key, value, self.counters.frames)
                         writer.flush()
-                        if bar is not None:
-                            bar.set_postfix(sps=f"{row['env_steps_per_s']:.0f}", ret=row["episode_return_norm"],
-                                            eval=row["eval_return_norm"])
+                        if bar is not None:  # the return of the latest evaluation and the best one so far
+                            last_eval = evaluation["return_norm"] if evaluation is not None else last_eval
+                            bar.set_postfix(sps=f"{row['env_steps_per_s']:.0f}", ret=_short(row["episode_return_norm"]),
+                                            eval=_short(last_eval), best=_short(self.counters.best_eval))
                         next_log = _next_multiple(self.counters.frames, c.log.log_every_frames)
                     if self.counters.frames >= next_ckpt or self.counters.frames >= c.collector.total_frames:
                         self.save()
