@@ -1,9 +1,18 @@
 """The trained controller at run time: loading, ONNX export and a runtime without TorchRL.
 
-``PolicyRuntime`` is what flies the aircraft after training (evaluation, the loop bench): it keeps
-the 8-step observation window exactly as training's ``CatFrames`` does (a new episode's window is
-its first observation repeated), scales observations and maps actions to actuator commands, and
-runs either the PyTorch network or its ONNX export (onnxruntime, one thread).
+``PolicyRuntime`` is what flies the aircraft after training (evaluation, the loop bench): the
+control stack its policy file records (``jsbsim_env.control.stack``: trims, observation, the
+window kept exactly as training's ``CatFrames`` keeps it) around the network, run by PyTorch or by
+its ONNX export (onnxruntime, one thread).
+
+    >>> import numpy as np
+    >>> from jsbsim_env.control.policy import PolicyRuntime
+    >>> runtime = PolicyRuntime()  # the shipped controller
+    >>> measurement = np.array([10000.0, 0.0, 0.02, 0, 0, 0, 10.0, 0.02, 0, 0, -0.05, 0, 0.5])  # m, rad, rad/s, m/s
+    >>> goal = np.array([np.radians(3.0), 0.02, 10.0])  # roll, pitch rad; EAS m/s
+    >>> command = runtime.act(measurement, goal, dt_s=0.04)  # aileron, elevator, rudder deg; throttle 0..1
+    >>> command.shape
+    (4,)
 """
 
 from __future__ import annotations
@@ -25,7 +34,7 @@ from jsbsim_env.control.network import ActorNet
 from jsbsim_env.control.observation import OBS_SIZE, ActionError
 from jsbsim_env.control.stack import ControlStack, StackSettings
 
-SHIPPED_POLICY = "solar_uav_policy.pt"  # in the training package, with its ONNX export beside it
+SHIPPED_POLICY = "solar_uav_policy.pt"  # in shipped/ beside this module, with its ONNX export
 ONNX_SOURCE_KEY = "policy_sha256"  # ONNX metadata: digest of the policy file the model was exported from
 
 
@@ -50,30 +59,31 @@ class DeterministicActor(nn.Module):
         return torch.tanh(loc)
 
 
-# Settings of policy files written before the control stack was recorded as one entry, and the only
-# values this version flies: the observation and trims the stack has (hidden trims taken off the
-# observed surfaces, no error integrals, no rudder trim).
-_FLAT_SETTINGS_FLOWN = {"error_integral_decay": 0.0, "observe_trims": False, "trims_in_surfaces": False,
-                        "rudder_trim_s": 0.0}
+# How a policy file written before its ``stack`` entry recorded its stages: each flat setting with
+# the value a file that does not name it was written with.
+_FLAT_DEFAULTS = {"window": 8, "integral_trim": 0.0, "goal_trim_s": 0.0, "error_integral_decay": 0.0,
+                  "observe_trims": True, "trims_in_surfaces": True, "rudder_trim_s": 0.0}
 
 
 def stack_settings_of(data: dict, path: Path) -> StackSettings:
     """The control-stack settings a policy file records: its ``stack`` entry, or, in a file written
-    before that entry, the flat settings it was saved with (refused, naming them, where they
-    describe stages this version no longer has)."""
+    before that entry, the flat settings it was saved with. A file whose stages this version no
+    longer has (error integrals, a rudder trim, surface trims shown to the policy or left in its
+    observed surfaces) is refused, naming them."""
     if "stack" in data:
         return StackSettings.from_dict(data["stack"])
-    trim = float(data.get("integral_trim", 0.0))
-    if trim > 0.0:
-        gone = {k: data.get(k) for k, v in _FLAT_SETTINGS_FLOWN.items() if k in data and data[k] != v}
-    else:
-        gone = {k: data[k] for k in ("error_integral_decay", "rudder_trim_s") if data.get(k)}
-    if gone or (trim > 0.0 and set(_FLAT_SETTINGS_FLOWN) - set(data) - {"error_integral_decay", "rudder_trim_s"}):
-        raise PolicyFileError(f"{path} was trained with settings this version of the package no longer has "
-                              f"({', '.join(f'{k}={v}' for k, v in gone.items()) or 'trims in the observation'}); "
-                              "fly it with the version it was trained with")
-    return StackSettings(window_steps=int(data.get("window", 8)),
-                         goal_trim_time_constant_s=float(data.get("goal_trim_s", 0.0)), surface_trim_gain=trim)
+    flat = {k: data.get(k, default) for k, default in _FLAT_DEFAULTS.items()}
+    trimmed = float(flat["integral_trim"]) > 0.0
+    gone = [name for name, present in (("error_integral_decay", float(flat["error_integral_decay"]) > 0.0),
+                                       ("rudder_trim_s", float(flat["rudder_trim_s"]) > 0.0),
+                                       ("observe_trims", trimmed and bool(flat["observe_trims"])),
+                                       ("trims_in_surfaces", trimmed and bool(flat["trims_in_surfaces"]))) if present]
+    if gone:
+        raise PolicyFileError(f"{path} was trained with stages this version of the package no longer has "
+                              f"({', '.join(f'{name}={flat[name]}' for name in gone)}); fly it with the version it "
+                              "was trained with")
+    return StackSettings(window_steps=int(flat["window"]), goal_trim_time_constant_s=float(flat["goal_trim_s"]),
+                         surface_trim_gain=float(flat["integral_trim"]))
 
 
 def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
