@@ -1,15 +1,22 @@
-"""Score training runs for the ablation table: each run's best policy on the evaluation suite, the
-calm 1 km and 20 km routes (steady-state error) and the 10 km route (turbulent leg, level flight),
-with the wall-clock the run took to reach that policy; then one row per candidate over its seeds.
+"""Score training runs for the ablation table, or print the record of every candidate tried.
 
     python scripts/ablation.py runs/c2_seed0 runs/c2_seed1 runs/c2_seed2 --markdown
-    python scripts/ablation.py runs/*_seed* --pid --json
+    python scripts/ablation.py runs/*_seed* --pid DIR --json
+    python scripts/ablation.py --markdown > docs/ablation.md
 
-Runs are grouped into candidates by their folder name without the ``_seedN`` ending. Each run's
-scores are kept in ``RUN_DIR/scorecard/scorecard.json`` (with the report's figures beside it) and
-reused while the policy file is unchanged, so adding a seed costs only that seed's flights; a
-scorecard written before a section existed (the Table 9 aircraft) gains only that section's flights.
-``--pid`` adds the PID on the same flights as the reference row.
+With run folders: each run's best policy, flown as its policy file records it, on the evaluation
+suite, the calm 1 km and 20 km routes (steady-state error), the 10 km route (turbulent leg, level
+flight) and the calm 10 km route flown by the Table 9 aircraft, with the wall-clock the run took to
+reach that policy; then one row per candidate over its seeds. Runs are grouped into candidates by
+their folder name without the ``_seedN`` ending. Each run's scores are kept in
+``RUN_DIR/scorecard/scorecard.json`` (with the report's figures beside it) and reused while the
+policy file is unchanged, so adding a seed costs only that seed's flights; a scorecard written
+before a section existed (the Table 9 aircraft) gains only that section's flights. ``--pid`` adds
+the PID on the same flights as the reference row.
+
+Without run folders, ``--markdown`` prints docs/ablation.md: every candidate tried so far, from the
+figures recorded in ``scripts/ablation_rows.json`` (one row per candidate, the commit that added
+it, whether it was kept) and a paragraph on each decision kept.
 """
 
 from __future__ import annotations
@@ -57,15 +64,12 @@ def candidate_name(run_dir: Path) -> str:
     return re.sub(r"_seed\d+$", "", run_dir.name)
 
 
-def score(controller_factory, out_dir: Path, policy: Path | None, episodes: int, quick: bool = False,
-          integral_trim: float = 0.0) -> dict:
+def score(controller_factory, out_dir: Path, policy: Path | None, episodes: int, quick: bool = False) -> dict:
     """Suite, routes and their figures into ``out_dir``, kept in ``out_dir/scorecard.json`` and
-    reused while the scoring version, the controller (the policy file's digest, or the PID, and its
-    integral trim), the aircraft model, the route settings, the episode count and ``quick`` are the same."""
+    reused while the scoring version, the controller (the policy file's digest, or the PID), the
+    aircraft model, the route settings, the episode count and ``quick`` are the same."""
     key = {"scoring": SCORING_VERSION, "controller": policy_digest(policy) if policy is not None else "PID",
            "episodes": episodes, "quick": quick, "aircraft_model": aircraft.model_fingerprint(), "route": asdict(RouteConfig())}
-    if integral_trim:
-        key["integral_trim"] = integral_trim
     key = json.loads(json.dumps(key))  # as it reads back from the file (tuples become lists)
     path = out_dir / "scorecard.json"
     card = {"key": key}
@@ -81,7 +85,7 @@ def score(controller_factory, out_dir: Path, policy: Path | None, episodes: int,
     out_dir.mkdir(parents=True, exist_ok=True)
     name = "PID" if policy is None else "RL"
     earlier = json.loads((out_dir / "metrics.json").read_text()) if (out_dir / "metrics.json").exists() else {}
-    metrics = run_report(out_dir, policy, quick=quick, progress=False, controllers=(name,), integral_trim=integral_trim,
+    metrics = run_report(out_dir, policy, quick=quick, progress=False, controllers=(name,),
                          experiments=tuple(e for section in missing for e in SECTIONS[section]))
     if earlier.get("controllers") == metrics["controllers"]:  # one report of every experiment flown
         merged = {**earlier, **metrics, "experiments": [*earlier.get("experiments", []), *metrics["experiments"]]}
@@ -100,13 +104,12 @@ def score(controller_factory, out_dir: Path, policy: Path | None, episodes: int,
     return card
 
 
-def run_scorecard(run_dir: Path, episodes: int, quick: bool = False, integral_trim: float = 0.0) -> dict:
-    """The scores of the run's best policy (with integral trim of that fraction, where > 0), with the
+def run_scorecard(run_dir: Path, episodes: int, quick: bool = False) -> dict:
+    """The scores of the run's best policy, flown with the control stack its file records, with the
     wall-clock the run took to reach it."""
     policy = run_dir / "best_policy.pt"
-    folder = run_dir / (f"scorecard_trim{integral_trim:g}" if integral_trim else "scorecard")
-    card = score(lambda: make_controller("policy", policy, integral_trim, backend="torch"), folder, policy, episodes,
-                 quick, integral_trim)
+    card = score(lambda: make_controller("policy", policy, backend="torch"), run_dir / "scorecard", policy, episodes,
+                 quick)
     frames = int(load_policy(policy)[1]["frames"])
     return {**card, "run": str(run_dir), "policy_frames": frames, "wall_clock": training_wall_clock(run_dir, frames)}
 
@@ -147,17 +150,23 @@ def markdown(groups: dict[str, list[dict]]) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    parser.add_argument("runs", type=Path, nargs="+", help="run folders, each with best_policy.pt")
+    parser.add_argument("runs", type=Path, nargs="*",
+                        help="run folders, each with best_policy.pt (none: --markdown prints the record of every "
+                             "candidate tried)")
     parser.add_argument("--episodes", type=int, default=50, help="evaluation-suite episodes per run")
     parser.add_argument("--pid", type=Path, metavar="DIR", help="also score the PID, its flights in DIR")
     output = parser.add_mutually_exclusive_group()
     output.add_argument("--json", action="store_true", help="print every scorecard as JSON (the default)")
-    output.add_argument("--markdown", action="store_true", help="print the table as Markdown")
+    output.add_argument("--markdown", action="store_true",
+                        help="print the table as Markdown; without run folders, docs/ablation.md: every candidate "
+                             f"tried, from {RECORD.name}")
     parser.add_argument("--quick", action="store_true", help="short routes, for checks")
-    parser.add_argument("--integral-trim", type=float, default=0.0, metavar="FRACTION",
-                        help="score the policies with integral trim (controllers.integral_trim) at this fraction of "
-                             "the PID's integral gains; 0: without")
     args = parser.parse_args()
+    if not args.runs:
+        if not args.markdown or args.pid:
+            parser.error("give run folders to score, or --markdown alone for the record of every candidate tried")
+        print(record_markdown(json.loads(RECORD.read_text(encoding="utf-8"))), end="")
+        return
     torch.set_num_threads(1)
     for run in args.runs:
         if not (run / "best_policy.pt").is_file():
@@ -166,8 +175,7 @@ def main() -> None:
     if args.pid:
         groups["PID (reference)"] = [score(PIDAttitudeController, args.pid, None, args.episodes, args.quick)]
     for run in args.runs:
-        name = candidate_name(run) + (f" + integral trim {args.integral_trim:g}" if args.integral_trim else "")
-        groups.setdefault(name, []).append(run_scorecard(run, args.episodes, args.quick, args.integral_trim))
+        groups.setdefault(candidate_name(run), []).append(run_scorecard(run, args.episodes, args.quick))
     print(markdown(groups) if args.markdown else json.dumps(groups, indent=1, default=float))
 
 

@@ -1,24 +1,30 @@
 """Fly the shipped controller (or ``--policy PATH``, or the PID baseline) on the fixed evaluation
-suite and print the metrics.
+suite and print the metrics; or, with ``--compare``, policy files beside the shipped policy and
+the PID on the same suite.
 
     python scripts/evaluate.py --json                   # metrics as JSON
     python scripts/evaluate.py --plots results/eval     # and the Fig. 9 time histories
     python scripts/evaluate.py --controller pid --json  # the gain-scheduled PID on the same suite
+    python scripts/evaluate.py --compare runs/a/best_policy.pt runs/b/best_policy.pt   # one table
+
+The suite (``training.evaluation.suite``): the doublets at three altitudes, then ``--episodes``
+seeded training-style episodes; every controller flies the same ones.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
-import torch
+# Only the standard library and training.runtime (no torch) load before the arguments are parsed,
+# so that a mistyped option is refused at once; the simulation and the networks load in main().
+from training.runtime import OutputFolderError, check_output_folder
 
-from jsbsim_env.control.pid import PIDAttitudeController
-from jsbsim_env.task.metrics import json_ready
-from jsbsim_env.control.policy import PolicyFileError, PolicyRuntime
-from training.evaluation.suite import evaluate
+SHIPPED, PID = "shipped", "PID"  # column names of --compare
+DEFAULT_EPISODES = 50
 
 
 def why_null(path: str) -> str:
@@ -30,40 +36,165 @@ def why_null(path: str) -> str:
     return "not a finite number"
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+class _HelpWithSuite(argparse.Action):
+    """``-h``/``--help``, with the suite's episode seeds read from the suite itself (loaded only
+    when the help is asked for, like the rest of the simulation)."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS, help=None):
+        super().__init__(option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from training.evaluation.suite import DOUBLET_ALTITUDES_M, EVAL_EPISODE_SEED
+
+        parser.epilog = (f"Seeds: the doublets fly at {', '.join(f'{a:.0f}' for a in DOUBLET_ALTITUDES_M)} m "
+                         f"(seeded by their altitude); episode k of --episodes has seed {EVAL_EPISODE_SEED} + k "
+                         f"(the default {DEFAULT_EPISODES} episodes: seeds {EVAL_EPISODE_SEED} to "
+                         f"{EVAL_EPISODE_SEED + DEFAULT_EPISODES - 1}), the same for every controller and run.")
+        parser.print_help()
+        parser.exit()
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], add_help=False, allow_abbrev=False,
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    parser.add_argument("-h", "--help", action=_HelpWithSuite, help="show this help message and exit")
     parser.add_argument("--controller", choices=("policy", "pid"), default="policy",
                         help="the trained policy, or the gain-scheduled PID baseline")
     parser.add_argument("--policy", type=Path, help="policy file (.pt); the shipped controller when omitted")
-    parser.add_argument("--episodes", type=int, default=50, help="seeded training-style episodes (at least 1)")
+    parser.add_argument("--compare", type=Path, nargs="+", metavar="POLICY",
+                        help="fly these policy files, the shipped policy and the PID on the same suite and print "
+                             "one table, a column each (with --json: one object keyed by controller name)")
+    parser.add_argument("--episodes", type=int, default=DEFAULT_EPISODES,
+                        help="seeded training-style episodes (at least 1; the seeds are below)")
     parser.add_argument("--plots", type=Path, help="folder for the doublet plots (none when omitted)")
     parser.add_argument("--backend", choices=("onnx", "torch"), default="onnx",
                         help="runtime of the policy: onnxruntime or PyTorch")
     parser.add_argument("--json", action="store_true", help="print the metrics as JSON (no progress bar)")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
     args = parser.parse_args(argv)
     if args.controller == "pid" and (args.policy or args.backend != "onnx"):
         parser.error("--policy and --backend are for --controller policy")
+    if args.compare and (args.policy or args.controller != "policy"):
+        parser.error("--compare flies the shipped policy and the PID itself: give the other policies to --compare, "
+                     "without --policy or --controller")
+    if args.compare and args.plots:
+        parser.error("--plots is for one controller: without --compare")
     if args.episodes < 1:
         parser.error(f"--episodes must be at least 1, got {args.episodes}")
-    torch.set_num_threads(1)
-    if args.controller == "pid":
-        controller, about = PIDAttitudeController(), {"name": "gain-scheduled PID"}
-    else:
+    if args.compare:
+        names = [str(p) for p in args.compare]
+        if len(set(names)) < len(names) or {SHIPPED, PID} & set(names):
+            parser.error(f"--compare takes distinct policy files (other than {SHIPPED!r} and {PID!r}), got {names}")
+    if args.plots is not None:
         try:
-            controller = PolicyRuntime(args.policy, backend=args.backend)
-        except PolicyFileError as err:
-            print(f"evaluate: {err}", file=sys.stderr)
+            check_output_folder(args.plots)
+        except OutputFolderError as err:
+            print(f"evaluate: --plots: {err}", file=sys.stderr)
             return 2
-        about = {"name": "policy", **{k: v for k, v in controller.meta.items() if k not in ("network", "stack")},
-                 "stack": controller.meta["stack"].to_dict()}
-    results = evaluate(controller, episodes=args.episodes, plot_dir=args.plots, progress=not args.json)
+
+    import torch
+
+    from jsbsim_env.control.policy import PolicyFileError
+
+    torch.set_num_threads(1)
+    try:  # every controller is built (its file read and checked) before the first flight
+        controllers = _controllers(args)
+    except PolicyFileError as err:
+        print(f"evaluate: {err}", file=sys.stderr)
+        return 2
+    if args.compare:
+        results = {name: _evaluate(controller, about, args.episodes, None, progress=not args.json, label=name)
+                   for name, (controller, about) in controllers.items()}
+        print(json.dumps(results, indent=2, allow_nan=False, default=str) if args.json else comparison_table(results))
+        return 0
+    ((controller, about),) = controllers.values()
+    results = _evaluate(controller, about, args.episodes, args.plots, progress=not args.json)
+    print(json.dumps(results, indent=2, allow_nan=False, default=str))
+    return 0
+
+
+def _controllers(args) -> dict[str, tuple[object, dict]]:
+    """The controllers to fly, by name, each with what the output says about it."""
+    from jsbsim_env.control.pid import PIDAttitudeController
+    from jsbsim_env.control.policy import PolicyRuntime
+
+    def policy(path: Path | None) -> tuple[object, dict]:
+        runtime = PolicyRuntime(path, backend=args.backend)
+        meta = runtime.meta
+        return runtime, {"name": "policy", "file": str(path) if path else SHIPPED,
+                         **{k: v for k, v in meta.items() if k not in ("network", "stack")},
+                         "stack": meta["stack"].to_dict()}
+
+    pid = (PIDAttitudeController(), {"name": "gain-scheduled PID"})
+    if args.compare:
+        return {**{str(path): policy(path) for path in args.compare}, SHIPPED: policy(None), PID: pid}
+    if args.controller == "pid":
+        return {PID: pid}
+    return {"policy": policy(args.policy)}
+
+
+def _evaluate(controller, about: dict, episodes: int, plots: Path | None, progress: bool, label: str = "") -> dict:
+    """The suite's metrics of one controller, ready for JSON (each null explained in ``null_values``)."""
+    from jsbsim_env.task.metrics import json_ready
+    from training.evaluation.suite import evaluate
+
+    if progress and label:
+        print(f"evaluate: flying {label}", file=sys.stderr)
+    results = evaluate(controller, episodes=episodes, plot_dir=plots, progress=progress)
     results["controller"] = about
     nulls: dict[str, str] = {}
     results = json_ready(results, why_null, nulls)
     results["null_values"] = nulls  # each metric printed as null, and why
-    print(json.dumps(results, indent=2, allow_nan=False, default=str))
-    return 0
+    return results
+
+
+# Rows of the --compare table: label and where the value is in the suite's results (the episodes'
+# means, or the doublets' metric averaged over the altitudes).
+_EPISODE_ROWS = (("return (normalised, mean)", "mean_return_norm", "{:.3f}"),
+                 ("RMSE roll, deg", "mean_rmse_roll_deg", "{:.2f}"),
+                 ("RMSE pitch, deg", "mean_rmse_pitch_deg", "{:.2f}"),
+                 ("RMSE EAS, m/s", "mean_rmse_airspeed_eas_mps", "{:.3f}"),
+                 ("RMSE sideslip, deg", "mean_rmse_beta_deg", "{:.2f}"))
+_DOUBLET_ROWS = (("doublets RMSE roll, deg", "rmse_roll_deg", "{:.2f}"),
+                 ("doublets RMSE pitch, deg", "rmse_pitch_deg", "{:.2f}"),
+                 ("doublets RMSE EAS, m/s", "rmse_airspeed_eas_mps", "{:.3f}"),
+                 ("doublets RMSE sideslip, deg", "rmse_beta_deg", "{:.2f}"))
+
+
+def comparison_table(results: dict[str, dict]) -> str:
+    """The suite's headline figures of each controller side by side (``_evaluate``'s results by
+    name): the episodes' mean return, early ends and RMSE, then the doublets' RMSE averaged over
+    their altitudes."""
+    def cell(value, fmt: str) -> str:
+        return "—" if value is None or (isinstance(value, float) and not math.isfinite(value)) else fmt.format(value)
+
+    def doublet_mean(doublets: dict, key: str):
+        values = [d[key] for d in doublets.values()]
+        return None if any(v is None for v in values) else sum(values) / len(values)
+
+    first = next(iter(results.values()))
+    rows = [("controller", list(results))]
+    for label, key, fmt in _EPISODE_ROWS[:1]:
+        rows.append((label, [cell(r["episodes"][key], fmt) for r in results.values()]))
+    rows.append((f"early ends (of {first['episodes']['count']} episodes)",
+                 [str(r["episodes"]["ended_early"]) for r in results.values()]))
+    for label, key, fmt in _EPISODE_ROWS[1:]:
+        rows.append((label, [cell(r["episodes"][key], fmt) for r in results.values()]))
+    rows.append((f"doublets ended early (of {len(first['doublets'])})",
+                 [str(sum(bool(d["ended_early"]) for d in r["doublets"].values())) for r in results.values()]))
+    for label, key, fmt in _DOUBLET_ROWS:
+        rows.append((label, [cell(doublet_mean(r["doublets"], key), fmt) for r in results.values()]))
+    widths = [max(len(row[0]) for row in rows)] + [max(len(row[1][j]) for row in rows) for j in range(len(results))]
+    lines = []
+    for k, (label, cells) in enumerate(rows):
+        lines.append("  ".join([label.ljust(widths[0]), *(c.rjust(w) for c, w in zip(cells, widths[1:]))]))
+        if k == 0:
+            lines.append("  ".join("-" * w for w in widths))
+    return "\n".join(lines)
 
 
 if __name__ == "__main__":

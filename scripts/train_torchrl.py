@@ -2,6 +2,7 @@
 
     python scripts/train_torchrl.py                         # default run, folder runs/<name>
     python scripts/train_torchrl.py --seed 1 --collector.total_frames 50000
+    python scripts/train_torchrl.py --env.task SolarUAVAttitude-v0   # the paper's task (SPEC section 3)
     python scripts/train_torchrl.py --resume runs/<name>    # continue a stopped run
     python scripts/train_torchrl.py --help                  # every setting
 """
@@ -14,11 +15,10 @@ import sys
 import time
 from pathlib import Path
 
-from training.checkpoint import CheckpointError
-from training.config import PRESETS, TrainConfig
-from training.provenance import append_session
+# Only what the parser needs is imported here: torch and TorchRL load after the arguments are
+# parsed, so that a mistyped option is refused at once.
+from training.config import TrainConfig
 from training.runtime import torchrl_logs_to_stderr, tune_allocator
-from training.trainer import RunLockedError, Trainer, TrainingInterrupted
 
 # Exit codes of a run stopped by a signal, as a shell reports them (128 + signal number).
 _SIGNAL_EXIT = {"SIGINT": 130, "SIGTERM": 143}
@@ -27,12 +27,11 @@ _SIGNAL_EXIT = {"SIGINT": 130, "SIGTERM": 143}
 def main(argv: list[str] | None = None) -> int:
     # Each setting's help already names its default (the parser's own defaults are None, so that
     # a resume can tell which settings were given).
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    # allow_abbrev=False: an option is matched whole, never by prefix (``--env.num_env`` is an error,
+    # not ``--env.num_envs``).
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False)
     parser.add_argument("--resume", type=Path, metavar="RUN_DIR", help="continue the run in this folder")
     parser.add_argument("--run-name", help="folder name under --log.run_root (default: seed and time)")
-    parser.add_argument("--preset", choices=PRESETS, default="default",
-                        help="starting configuration the other options change: this package's, or the paper's "
-                             "(SPEC section 3; default: default)")
     parser.add_argument("--json", action="store_true",
                         help="print the last log row as JSON on stdout (everything else goes to stderr)")
     parser.add_argument("--seeds", help="train these seeds (comma-separated), each its own run "
@@ -44,16 +43,18 @@ def main(argv: list[str] | None = None) -> int:
                                           "default: a local Ray instance)")
     TrainConfig.add_arguments(parser)
     args = parser.parse_args(argv)
-    torchrl_logs_to_stderr()
-    tune_allocator()
-    if args.resume and args.preset != "default":
-        parser.error("--preset starts a new run; a resumed run keeps the settings it was started with")
+    if args.seeds is not None and args.resume:
+        parser.error("--seeds resumes its runs itself: give the same command again instead of --resume")
     # The command as the run's sessions record it.
     command = ["python", "scripts/train_torchrl.py", *(sys.argv[1:] if argv is None else argv)]
     if args.seeds is not None:
-        if args.resume:
-            parser.error("--seeds resumes its runs itself: give the same command again instead of --resume")
         return _train_seeds(args, command)
+    torchrl_logs_to_stderr()
+    tune_allocator()
+    from training.checkpoint import CheckpointError
+    from training.provenance import append_session
+    from training.trainer import RunLockedError, Trainer, TrainingInterrupted
+
     try:
         if args.resume:
             config_path = args.resume / "config.json"
@@ -63,7 +64,7 @@ def main(argv: list[str] | None = None) -> int:
             config = TrainConfig.from_namespace(args, base=saved)
             run_dir = args.resume
         else:
-            config = TrainConfig.from_namespace(args, base=TrainConfig.preset(args.preset))
+            config = TrainConfig.from_namespace(args)
             name = args.run_name or f"sac_seed{config.seed}_{time.strftime('%Y%m%d-%H%M%S')}"
             run_dir = Path(config.log.run_root) / name
         trainer = Trainer(config, run_dir, resume=args.resume is not None)
@@ -88,11 +89,15 @@ def main(argv: list[str] | None = None) -> int:
 
 def _train_seeds(args, command: list[str]) -> int:
     """Several seeds of one configuration (``training.multiseed``), then their summary."""
+    torchrl_logs_to_stderr()
+    tune_allocator()
+    from training.checkpoint import CheckpointError
     from training.multiseed import seeds_summary, train_seeds
+    from training.trainer import RunLockedError
 
     try:
         seeds = [int(x) for x in args.seeds.split(",") if x.strip()]
-        config = TrainConfig.from_namespace(args, base=TrainConfig.preset(args.preset))
+        config = TrainConfig.from_namespace(args)
         name = args.run_name or f"sac_{time.strftime('%Y%m%d-%H%M%S')}"
         rows = train_seeds(config, seeds, name, command, args.backend, args.workers, args.address)
     except (CheckpointError, RunLockedError, ValueError, RuntimeError) as err:

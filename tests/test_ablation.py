@@ -7,28 +7,11 @@ import subprocess
 import sys
 from pathlib import Path
 
-from training.config import TrainConfig
-from training.trainer import Trainer
-
 SCRIPT = Path(__file__).resolve().parents[1] / "scripts" / "ablation.py"
 
 
-def _run_folder(root: Path, name: str, seed: int) -> Path:
-    c = TrainConfig(seed=seed)
-    c.env.num_envs = 1
-    c.buffer.capacity = 10
-    c.log.progress = False
-    # Flown at its training trim, the untrained policy ends a held-out flight early (test_heldout
-    # relies on it); twice the PID's trim gains would hold it up.
-    c.env.flight_integral_trim = 0.0
-    run = root / name
-    Trainer(c, run).save_policy(run / "best_policy.pt", {"return_norm": 0.0})
-    (run / "progress.csv").write_text("frames,wall_s\n0,0.5\n0,12.0\n")
-    return run
-
-
-def test_ablation_scores_groups_and_caches(tmp_path):
-    runs = [_run_folder(tmp_path, f"cand_seed{s}", s) for s in (0, 1)]
+def test_ablation_scores_groups_and_caches(tmp_path, untrained_run):
+    runs = [untrained_run(tmp_path, f"cand_seed{s}", s) for s in (0, 1)]
     command = [sys.executable, str(SCRIPT), *map(str, runs), "--quick", "--episodes", "1"]
     done = subprocess.run(command, check=False, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr

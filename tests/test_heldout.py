@@ -10,7 +10,6 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from test_ablation import _run_folder
 
 from training.evaluation import heldout
 from training.evaluation.heldout import heldout_flights, relative_score
@@ -64,8 +63,8 @@ def test_a_chattering_surface_is_refused_whatever_its_errors():
     assert math.isclose(relative_score(busy, pid), 0.5)
 
 
-def test_heldout_scores_runs_and_the_pid(tmp_path):
-    run = _run_folder(tmp_path, "cand_seed0", 0)
+def test_heldout_scores_runs_and_the_pid(tmp_path, untrained_run):
+    run = untrained_run(tmp_path, "cand_seed0", 0)
     command = [sys.executable, str(SCRIPT), str(run), "--pid", "--quick"]
     done = subprocess.run([*command, "--json"], check=False, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
@@ -91,11 +90,11 @@ def test_heldout_scores_runs_and_the_pid(tmp_path):
     assert lines[-1].startswith(f"picked: {shipped} ")
 
 
-def test_heldout_refuses_a_folder_without_a_policy_and_clashing_names(tmp_path):
+def test_heldout_refuses_a_folder_without_a_policy_and_clashing_names(tmp_path, untrained_run):
     done = subprocess.run([sys.executable, str(SCRIPT), str(tmp_path)], check=False, capture_output=True, text=True,
                           timeout=120)
     assert done.returncode != 0 and "has no best_policy.pt" in done.stderr
-    runs = [_run_folder(tmp_path / side, "cand_seed0", 0) for side in ("a", "b")]
+    runs = [untrained_run(tmp_path / side, "cand_seed0", 0) for side in ("a", "b")]
     done = subprocess.run([sys.executable, str(SCRIPT), *map(str, runs), "--pick"], check=False, capture_output=True,
                           text=True, timeout=120)
     assert done.returncode != 0 and "distinct names" in done.stderr

@@ -18,40 +18,17 @@ import torch
 
 from jsbsim_env.task.attitude import ActionError
 from training.checkpoint import CheckpointError, atomic_save, checked_load, load_checkpoint
-from training.config import TrainConfig
 from jsbsim_env.control.policy import PolicyFileError, PolicyRuntime, load_policy
 from training.trainer import Trainer
 
-ROOT = Path(__file__).resolve().parents[1]
-SCRIPTS = ROOT / "scripts"
-TINY = ["--seed", "3", "--env.num_envs", "4", "--collector.frames_per_batch", "32",
-        "--collector.init_random_frames", "64", "--buffer.capacity", "5000", "--buffer.batch_size", "16",
-        "--network.lstm_hidden", "8", "--network.mlp_hidden", "16", "--log.eval_every_frames", "96",
-        "--log.eval_episodes", "1", "--log.eval_max_steps", "5", "--log.checkpoint_every_frames", "96",
-        "--log.log_every_frames", "32", "--log.progress", "false"]
-
-
-def _script(name: str):
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location(name, SCRIPTS / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
 
 
 @pytest.fixture(scope="module")
-def tiny_run(tmp_path_factory):
+def tiny_run(tmp_path_factory, tiny_config):
     """A run folder trained for 96 steps (checkpoint and best policy)."""
-    c = TrainConfig(seed=3)
-    c.env.num_envs = 4
-    c.collector.total_frames, c.collector.frames_per_batch, c.collector.init_random_frames = 96, 32, 64
-    c.buffer.capacity, c.buffer.batch_size = 5000, 16
-    c.network.lstm_hidden, c.network.mlp_hidden = 8, 16
-    c.log.eval_every_frames, c.log.eval_episodes, c.log.eval_max_steps = 96, 1, 5
-    c.log.checkpoint_every_frames, c.log.log_every_frames, c.log.progress = 96, 32, False
     run = tmp_path_factory.mktemp("reliability") / "run"
-    Trainer(c, run).train()
+    Trainer(tiny_config(96), run).train()
     return run
 
 
@@ -102,26 +79,26 @@ def test_a_policy_file_with_nan_weights_is_refused_naming_the_file(tiny_run, tmp
         load_policy(path)
 
 
-def test_evaluate_refuses_a_damaged_policy_file_naming_it(tiny_run, tmp_path, capsys):
+def test_evaluate_refuses_a_damaged_policy_file_naming_it(tiny_run, tmp_path, capsys, load_script):
     path = _copy(tiny_run / "best_policy.pt", tmp_path)
     _overwrite_4kib(path) if path.stat().st_size > 10_000 else path.write_bytes(path.read_bytes()[:-50] + b"x" * 50)
-    assert _script("evaluate").main(["--policy", str(path), "--json"]) == 2
+    assert load_script("evaluate").main(["--policy", str(path), "--json"]) == 2
     err = capsys.readouterr().err
     assert str(path) in err and "damaged" in err
 
 
-def test_evaluate_refuses_zero_episodes(capsys):
+def test_evaluate_refuses_zero_episodes(capsys, load_script):
     with pytest.raises(SystemExit) as stop:
-        _script("evaluate").main(["--episodes", "0"])
+        load_script("evaluate").main(["--episodes", "0"])
     assert stop.value.code == 2 and "--episodes must be at least 1, got 0" in capsys.readouterr().err
 
 
-def test_evaluate_json_has_null_and_the_reason_where_a_metric_is_not_finite():
+def test_evaluate_json_has_null_and_the_reason_where_a_metric_is_not_finite(load_script):
     from jsbsim_env.task.metrics import json_ready
 
     nulls: dict[str, str] = {}
     out = json_ready({"doublets": {"500m": {"settling_time_90_s_roll": [2.8, math.nan]}}, "x": np.float64(1.5)},
-                     _script("evaluate").why_null, nulls)
+                     load_script("evaluate").why_null, nulls)
     text = json.dumps(out, allow_nan=False)
     assert json.loads(text)["doublets"]["500m"]["settling_time_90_s_roll"] == [2.8, None]
     assert nulls == {"doublets.500m.settling_time_90_s_roll[1]":
@@ -135,30 +112,30 @@ def test_running_a_policy_writes_nothing_beside_the_users_file(tiny_run, tmp_pat
     assert sorted(p.name for p in tmp_path.iterdir()) == [path.name]
 
 
-def test_resume_of_a_missing_folder_is_a_one_line_error(tmp_path, capsys):
-    assert _script("train_torchrl").main(["--resume", str(tmp_path / "nowhere")]) == 2
+def test_resume_of_a_missing_folder_is_a_one_line_error(tmp_path, capsys, load_script):
+    assert load_script("train_torchrl").main(["--resume", str(tmp_path / "nowhere")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [f"train_torchrl: no run to resume at {tmp_path / 'nowhere'} (it has no config.json)"]
 
 
-def test_total_frames_below_the_random_warm_up_is_refused_with_both_numbers(tmp_path, capsys):
-    code = _script("train_torchrl").main([*TINY, "--collector.total_frames", "32", "--log.run_root", str(tmp_path)])
+def test_total_frames_below_the_random_warm_up_is_refused_with_both_numbers(tmp_path, capsys, load_script, tiny_args):
+    code = load_script("train_torchrl").main([*tiny_args(32), "--log.run_root", str(tmp_path)])
     assert code == 2
     err = capsys.readouterr().err
     assert "collector.total_frames (32) must exceed collector.init_random_frames (64)" in err
 
 
-def test_training_prints_only_json_on_stdout_when_asked(tmp_path, capsys):
-    code = _script("train_torchrl").main([*TINY, "--collector.total_frames", "96", "--log.run_root", str(tmp_path),
+def test_training_prints_only_json_on_stdout_when_asked(tmp_path, capsys, load_script, tiny_args):
+    code = load_script("train_torchrl").main([*tiny_args(96), "--log.run_root", str(tmp_path),
                                           "--run-name", "run", "--json"])
     assert code == 0
     out = json.loads(capsys.readouterr().out)  # the whole of stdout is one JSON document
     assert out["frames"] == 96 and out["run_dir"] == str(tmp_path / "run")
 
 
-def test_sigint_during_training_writes_a_checkpoint_and_resume_goes_on(tmp_path):
+def test_sigint_during_training_writes_a_checkpoint_and_resume_goes_on(tmp_path, tiny_args):
     run = tmp_path / "run"
-    cmd = [sys.executable, str(SCRIPTS / "train_torchrl.py"), *TINY, "--collector.total_frames", "1000000",
+    cmd = [sys.executable, str(SCRIPTS / "train_torchrl.py"), *tiny_args(1_000_000),
            "--log.run_root", str(tmp_path), "--run-name", "run"]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 240

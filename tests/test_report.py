@@ -8,20 +8,12 @@ import subprocess
 import sys
 from pathlib import Path
 
-from training.config import TrainConfig
-from training.trainer import Trainer
-
 SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
 
 
-def test_quick_report_writes_every_named_file(tmp_path):
+def test_quick_report_writes_every_named_file(tmp_path, untrained_policy):
     # An untrained policy stands in for the trained one: the report must cope with whatever it flies.
-    c = TrainConfig(seed=2)
-    c.env.num_envs = 1
-    c.buffer.capacity = 10
-    c.log.progress = False
-    policy = tmp_path / "policy.pt"
-    Trainer(c, tmp_path / "run").save_policy(policy, {"return_norm": 0.0})
+    policy = untrained_policy(tmp_path / "policy.pt", seed=2)
     out = tmp_path / "report"
     done = subprocess.run([sys.executable, str(SCRIPTS / "report.py"), "--out", str(out), "--quick", "--policy",
                            str(policy), "--no-progress"], check=False, capture_output=True, text=True, timeout=600)

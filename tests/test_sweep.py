@@ -21,18 +21,6 @@ from training.evaluation.sweep import (
     run_local,
 )
 
-SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
-
-
-def _script(name: str):
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location(name, SCRIPTS / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 def test_axes_parse_and_bad_ones_are_refused():
     assert parse_axis("delay_ms=0, 100,300") == ("delay_ms", [0.0, 100.0, 300.0])
     with pytest.raises(ValueError, match="unknown axis 'delay'"):
@@ -100,9 +88,9 @@ def test_breaking_points_are_the_first_value_with_an_early_end():
     assert breaking_points(rows, "x") == {"a": 2, "b": None}
 
 
-def test_the_sweep_command_writes_its_table_and_the_ray_backend_gives_the_same_numbers(tmp_path, capsys):
+def test_the_sweep_command_writes_its_table_and_the_ray_backend_gives_the_same_numbers(tmp_path, capsys, load_script):
     pytest.importorskip("ray")
-    script = _script("sweep")
+    script = load_script("sweep")
     common = ["--axis", "backlash_deg=0,1", "--controllers", "pid", "--episodes", "1", "--json"]
     assert script.main([*common, "--out", str(tmp_path / "local")]) == 0
     local = json.loads(capsys.readouterr().out)
@@ -114,8 +102,8 @@ def test_the_sweep_command_writes_its_table_and_the_ray_backend_gives_the_same_n
     assert (tmp_path / "local" / "command.txt").read_text().startswith("python scripts/sweep.py --axis backlash_deg")
 
 
-def test_the_sweep_command_refuses_bad_input(tmp_path, capsys):
-    script = _script("sweep")
+def test_the_sweep_command_refuses_bad_input(tmp_path, capsys, load_script):
+    script = load_script("sweep")
     assert script.main(["--out", str(tmp_path)]) == 2
     assert "give at least one --axis" in capsys.readouterr().err
     assert script.main(["--axis", "delay_ms=0", "--controllers", "lqr", "--out", str(tmp_path)]) == 2
@@ -130,20 +118,13 @@ def test_a_missing_ray_is_a_clear_message(monkeypatch):
         run_ray([])
 
 
-TINY = ["--env.num_envs", "4", "--collector.frames_per_batch", "32", "--collector.init_random_frames", "64",
-        "--collector.total_frames", "96", "--buffer.capacity", "5000", "--buffer.batch_size", "16",
-        "--network.lstm_hidden", "8", "--network.mlp_hidden", "16", "--log.eval_every_frames", "96",
-        "--log.eval_episodes", "1", "--log.eval_max_steps", "5", "--log.checkpoint_every_frames", "96",
-        "--log.log_every_frames", "32", "--log.progress", "false"]
-
-
 @pytest.mark.parametrize("backend", ["local", "ray"])
-def test_several_seeds_train_as_their_own_runs_and_resume(backend, tmp_path, capsys):
+def test_several_seeds_train_as_their_own_runs_and_resume(backend, tmp_path, capsys, load_script, tiny_args):
     if backend == "ray":
         pytest.importorskip("ray")
-    script = _script("train_torchrl")
-    args = ["--seeds", "3,4", "--backend", backend, "--run-name", "tiny", "--log.run_root", str(tmp_path), *TINY,
-            "--json"]
+    script = load_script("train_torchrl")
+    args = ["--seeds", "3,4", "--backend", backend, "--run-name", "tiny", "--log.run_root", str(tmp_path),
+            *tiny_args(96, seed=None), "--json"]
     assert script.main(args) == 0
     summary = json.loads(capsys.readouterr().out)
     assert [Path(r["run"]).name for r in summary["runs"]] == ["tiny_seed3", "tiny_seed4"]

@@ -42,7 +42,7 @@ def run_summary(run_dir: Path, final_evals: int = 3) -> dict:
 
 
 def plot_curves(runs: list[Path], out: Path) -> None:
-    """the paper's Fig. 8 from the runs' ``progress.csv``: episode length, training and evaluation return
+    """The paper's Fig. 8 from the runs' ``progress.csv``: episode length, training and evaluation return
     against environment steps, and the evaluation return against wall-clock; mean and min-max."""
     import matplotlib
 

@@ -68,7 +68,7 @@ PANELS = (("aileron", "roll"), ("elevator", "pitch"), ("rudder", "yaw"))
 
 
 def plot_effectiveness(rows: list[dict], path) -> None:
-    """the paper's Fig. 10 from ``effectiveness`` rows, as a PNG."""
+    """The paper's Fig. 10 from ``effectiveness`` rows, as a PNG."""
     import matplotlib
 
     matplotlib.use("Agg")

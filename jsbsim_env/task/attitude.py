@@ -77,7 +77,7 @@ def _penalty(x: float, cap: float, tail: float) -> float:
 
 def reward_terms(state, goal, sideslip_weight: float = 1.0, penalty_tail: float = 0.0,
                  roll_weight: float = 1.0, pitch_weight: float = 1.0) -> list[float]:
-    """the paper's Eq. 22 for one true state (``core.STATE_NAMES`` order) and goal: the four penalties
+    """The paper's Eq. 22 for one true state (``core.STATE_NAMES`` order) and goal: the four penalties
     (``REWARD_TERMS``, errors in degrees and m/s) and then the reward, 1 minus their sum;
     ``sideslip_weight``, ``roll_weight`` and ``pitch_weight`` scale those penalties and their caps,
     ``penalty_tail`` keeps that share of each penalty's slope beyond its cap (``TaskConfig``; 1, 0
@@ -97,7 +97,7 @@ def _penalties(x, cap: float, tail: float):
 
 def reward_from_achieved(achieved, goal, sideslip_weight: float = 1.0, penalty_tail: float = 0.0,
                          roll_weight: float = 1.0, pitch_weight: float = 1.0):
-    """the paper's Eq. 22 on arrays (numpy or torch): ``achieved`` (..., 4) in ``ACHIEVED_INDEX`` order and
+    """The paper's Eq. 22 on arrays (numpy or torch): ``achieved`` (..., 4) in ``ACHIEVED_INDEX`` order and
     ``goal`` (..., 3) -> reward (...). The vectorised twin of ``reward_terms``."""
     p_roll = roll_weight * _penalties(abs(achieved[..., 0] - goal[..., 0]) * (_DEG / 5.0), 0.3, penalty_tail)
     p_pitch = pitch_weight * _penalties(abs(achieved[..., 1] - goal[..., 1]) * (_DEG / 6.0), 0.3, penalty_tail)

@@ -113,7 +113,7 @@ def step_response_metrics(rec: EpisodeRecorder) -> dict:
 
 def doublet_runs(controller: AttitudeController, altitudes_m=DOUBLET_ALTITUDES_M, plot_dir: Path | None = None,
                  prefix: str = "doublets") -> dict:
-    """the paper's Section 5: the scripted doublets from a slightly perturbed start at each altitude,
+    """The paper's Section 5: the scripted doublets from a slightly perturbed start at each altitude,
     no delay, noise or perturbation of the aircraft. Returns metrics per altitude; writes the
     Fig. 9 plots and time histories to ``plot_dir``."""
     results = {}
