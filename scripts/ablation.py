@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import json
 import re
+import textwrap
 from dataclasses import asdict
 from pathlib import Path
 
@@ -31,13 +32,13 @@ import numpy as np
 import torch
 
 import aircraft
-from jsbsim_env.control.pid import PIDAttitudeController
-from jsbsim_env.missions import RouteConfig
 from jsbsim_env.control.factory import make_controller
+from jsbsim_env.control.pid import PIDAttitudeController
 from jsbsim_env.control.policy import load_policy, policy_digest
-from training.provenance import training_wall_clock
+from jsbsim_env.missions import RouteConfig
 from training.evaluation.report import render_markdown, run_report
 from training.evaluation.suite import suite_episodes
+from training.provenance import training_wall_clock
 
 # Scorecard sections (named by the key each adds to the scorecard) and the report experiments
 # they are flown with; a cached scorecard that lacks a section gets only that section's flights.
@@ -58,6 +59,10 @@ COLUMNS = (
     ("Table 9 + RMSE roll/pitch/β, deg", ("table9", "positive")),
     ("Table 9 − RMSE roll/pitch/β, deg", ("table9", "negative")),
 )
+
+
+# The record of every candidate tried (``--markdown`` without run folders).
+RECORD = Path(__file__).with_name("ablation_rows.json")
 
 
 def candidate_name(run_dir: Path) -> str:
@@ -145,6 +150,111 @@ def markdown(groups: dict[str, list[dict]]) -> str:
         wall = f"{np.mean(walls):.0f} ({min(walls):.0f}–{max(walls):.0f})" if walls else "—"
         lines.append("| " + " | ".join([name, str(len(cards)), *(cell(cards, w) for _, w in COLUMNS), wall]) + " |")
     return "\n".join(lines)
+
+
+# ---------------------------------------------------------------------- the record (docs/ablation.md)
+RECORD_INTRO = """\
+# What was tried
+
+Every candidate configuration trained so far, in the order tried, against the gain-scheduled PID
+on the same flights; then what each decision kept in the default rests on. This page is written
+by `python scripts/ablation.py --markdown > docs/ablation.md` from the figures recorded in
+`scripts/ablation_rows.json`; a new candidate is scored with `python scripts/ablation.py
+runs/<candidate>_seed0 runs/<candidate>_seed1 ... --pid DIR --markdown` and its row added there.
+
+Each run trained 140,000 environment steps (the state-critic run 200,000) on a 2-core CPU, usually
+beside one other run, one torch thread each; its best policy (by the 8 training-time evaluation
+episodes) was flown as its policy file records it. The columns:
+
+- *suite return*: normalised return on the 50 disturbed episodes of the evaluation suite, the mean
+  over the seeds and, in brackets, their range (no candidate ended a suite episode early);
+- *1 km SS*, *20 km SS*: calm-air steady-state error, the mean absolute roll / pitch error on the
+  straight legs of the 1 km and 20 km routes from 60 s after each corner (130 s at 20 km);
+- *level MAE*: mean absolute roll / pitch error in the paper's level-flight window (1000–1500 s) of
+  the 10 km route, on its straight flight;
+- *turbulent RMSE*: roll / pitch / sideslip RMSE on the turbulent leg of the 10 km route (the
+  paper's Table 8 flight);
+- *Table 9 +*, *Table 9 −*: roll / pitch / sideslip RMSE over the whole calm 10 km route flown by
+  the paper's Table 9 positive and negative aircraft, without retraining (— where the run was no
+  longer there to fly them);
+- *wall-clock*: training time to the run's best policy, the mean over the seeds (their range);
+- *tried at*: the commit that added the row;
+- *kept*: yes, it is in the default (the task version `SolarUAVAttitude-v1` and the training
+  defaults of `training/config.py`); no; replaced, the default for a while, replaced by a later
+  row; shipped, a single seed that was the shipped policy (then, or now).
+
+Every flight flies the report's fixed seeds, so each figure of a seed is one realisation of its
+turbulence and noise; one seed's training-time evaluation return moves by about ±0.03 between
+neighbouring evaluations, so rows rank only where they differ by more. "The same" means the row
+above; "the default then" the last row kept or replaced above it. The surface trim was called
+integral trim when these rows were trained; "flown with surface trim g" is the same policies with
+the trim's flight gain changed to g times the PID's integral gains, without retraining.
+"""
+
+RECORD_NOTES = """\
+\\* Scored on the earlier 20 km route (drawn for 10 km, so that its legs were all turn and its
+"steady state" was L1's roll demand switching between its limits) and on the level-flight window
+with a corner in it: not comparable with the figures without \\*. The runs were no longer there to
+score again.
+
+† The routes gave the attitude controller TECS's EAS demand; in the rows without † it is given its
+measured EAS (`RouteConfig.attitude_eas_demand = "measured"`, the default now). The PID's figures
+are the same either way.
+
+§ Shared the two cores with a third run or with scoring jobs.
+
+¶ Trained on a less loaded machine (140,000 steps in 826–1047 s, two runs side by side): these
+wall-clocks are not comparable with those above them.
+"""
+
+PREVIOUS_INTRO = """\
+## Before the corrected aircraft model
+
+The algorithm's settings were chosen on the aircraft model before its aerodynamic corrections
+([aircraft.md](aircraft.md)), by the training-time evaluation return (8 fixed episodes, every
+disturbance on; random actions score 0.12–0.13) against environment steps, one seed each unless
+named:
+"""
+
+_KEPT_ORDER = ("candidate", "seeds", "suite return", "1 km SS roll / pitch, °", "20 km SS roll / pitch, °",
+               "level MAE roll / pitch, °", "turbulent RMSE roll / pitch / β, °", "Table 9 + RMSE roll / pitch / β, °",
+               "Table 9 − RMSE roll / pitch / β, °", "wall-clock, min", "tried at", "kept")
+
+
+def _wrap(text: str) -> str:
+    return textwrap.fill(text, width=100, break_long_words=False, break_on_hyphens=False)
+
+
+def record_markdown(record: dict) -> str:
+    """docs/ablation.md from the record (``RECORD``): the table of every candidate, the earlier
+    model's table and one paragraph per decision kept."""
+    lines = [RECORD_INTRO, "| " + " | ".join(_KEPT_ORDER) + " |", "|" + "---|" * len(_KEPT_ORDER)]
+    for row in record["rows"]:
+        marks = set(row["marks"])
+        old = " \\*" if "old" in marks else ""
+        wall = row["wall_clock_min"] or "—"
+        wall += " §" if "shared" in marks else ""
+        wall += " ¶" if "later" in marks else ""
+        name = row["candidate"] + (" †" if "route" in marks else "")
+        cells = [name, str(row["seeds"]), row["suite_return"], row["ss_1km_deg"], row["ss_20km_deg"] + old,
+                 row["level_mae_deg"] + old, row["turbulent_rmse_deg"], row["table9_positive_rmse_deg"] or "—",
+                 row["table9_negative_rmse_deg"] or "—", wall, row["commit"], row["kept"]]
+        if "default" in marks:
+            cells = [f"**{c}**" for c in cells]
+        lines.append("| " + " | ".join(cells) + " |")
+    lines += ["", RECORD_NOTES, PREVIOUS_INTRO]
+    steps = ("20k", "40k", "60k", "100k", "200k")
+    head = ("run", "updates per step", *(f"{s} steps" for s in steps), "time to 60k steps", "tried at", "kept")
+    lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for row in record["previous_model_rows"]:
+        cells = [row["run"], row["updates_per_step"], *(row["eval_return_at"].get(s, "") for s in steps),
+                 row["time_to_60k"], row["commit"], row["kept"]]
+        lines.append("| " + " | ".join(cells) + " |")
+    lines += ["", "## The decisions kept", ""]
+    for decision in record["decisions"]:
+        lines += [_wrap(f"**{decision['title']}** ({decision['settings']}). {decision['text']}"), ""]
+    lines.append("[Back to the README](../README.md)")
+    return "\n".join(lines) + "\n"
 
 
 def main() -> None:
