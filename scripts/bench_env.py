@@ -28,12 +28,13 @@ import statistics
 import time
 
 import numpy as np
-import torch
 
 from jsbsim_env.sim.core import CoreConfig, FlightCore
-from jsbsim_env.task.attitude import ACTION_OFFSET, ACTION_SCALE, AttitudeTask, command_to_action
-from jsbsim_env.task.torchrl_env import SolarUAVAttitudeEnv
 from jsbsim_env.sim.trim_table import TrimTable
+from jsbsim_env.task.attitude import ACTION_OFFSET, ACTION_SCALE, AttitudeTask, command_to_action
+
+# torch and TorchRL (SolarUAVAttitudeEnv) load in the functions that use them, after the arguments
+# are parsed.
 
 
 def raw_rate(seconds: float) -> float:
@@ -90,7 +91,10 @@ def task_rate(seconds: float, seed: int) -> float:
     return sim_s / (time.perf_counter() - t0)
 
 
-def torchrl_rate(env: SolarUAVAttitudeEnv, seconds: float, seed: int) -> float:
+def torchrl_rate(env, seconds: float, seed: int) -> float:
+    """``env``: a ``SolarUAVAttitudeEnv``."""
+    import torch
+
     rng = np.random.default_rng(seed)
     td = env.reset()
     sim_s, t0 = 0.0, time.perf_counter()
@@ -103,6 +107,10 @@ def torchrl_rate(env: SolarUAVAttitudeEnv, seconds: float, seed: int) -> float:
 
 def _worker(args) -> tuple[float, float]:
     """One process of the multi-process measurement: (simulated seconds, wall seconds)."""
+    import torch
+
+    from jsbsim_env.task.torchrl_env import SolarUAVAttitudeEnv
+
     batch, seconds, seed = args
     torch.set_num_threads(1)
     TrimTable.shared().fill()
@@ -123,7 +131,7 @@ def processes_rate(processes: int, batch: int, seconds: float, seed: int) -> flo
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--seconds", type=float, default=100.0, help="simulated seconds per measurement and aircraft")
     parser.add_argument("--rounds", type=int, default=3, help="repeats of each measurement; the median is reported")
@@ -131,6 +139,10 @@ def main() -> None:
     parser.add_argument("--processes", type=int, default=2, help="processes for the multi-process figure (0: skip)")
     parser.add_argument("--json", action="store_true", help="print the figures as JSON")
     args = parser.parse_args()
+    import torch
+
+    from jsbsim_env.task.torchrl_env import SolarUAVAttitudeEnv
+
     torch.set_num_threads(1)
     TrimTable.shared().fill()  # trims are cached per process; keep their first computation out of the timings
     envs = {1: SolarUAVAttitudeEnv(1, seed=1), **{n: SolarUAVAttitudeEnv(n, seed=n) for n in args.batch}}

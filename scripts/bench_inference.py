@@ -14,9 +14,8 @@ import time
 from pathlib import Path
 
 import numpy as np
-import torch
 
-from jsbsim_env.control.policy import PolicyRuntime
+# torch, onnxruntime and the policy runtime load in main(), after the arguments are parsed.
 
 
 def timed_us(call, steps: int) -> np.ndarray:
@@ -29,10 +28,10 @@ def timed_us(call, steps: int) -> np.ndarray:
     return out * 1e6
 
 
-CONTROL_INTERVAL_S = 0.04  # the routes' 25 Hz; read by policies trained with integral trim
+CONTROL_INTERVAL_S = 0.04  # the routes' 25 Hz; read by a policy whose control stack has trims
 
 
-def latencies_us(runtime: PolicyRuntime, steps: int, rng: np.random.Generator) -> np.ndarray:
+def latencies_us(runtime, steps: int, rng: np.random.Generator) -> np.ndarray:
     measurements = rng.normal(size=(steps, 13)) * 0.01 + np.array([10000, 0, 0, 0, 0, 0, 10, 0, 0, 0, 0, 0, 0.3])
     goal = np.array([0.0, 0.0, 10.0])
     runtime.reset()
@@ -40,24 +39,31 @@ def latencies_us(runtime: PolicyRuntime, steps: int, rng: np.random.Generator) -
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--policy", type=Path, help="policy file (.pt); the shipped controller when omitted")
     parser.add_argument("--steps", type=int, default=5000, help="control steps timed")
     parser.add_argument("--json", action="store_true", help="print the figures as JSON")
     args = parser.parse_args()
+    import torch
+
+    from jsbsim_env.control.policy import PolicyFileError, PolicyRuntime
+
     torch.set_num_threads(1)
     rng = np.random.default_rng(0)
     result = {"steps": args.steps}
     for backend in ("onnx", "torch"):
-        runtime = PolicyRuntime(args.policy, backend=backend)
+        try:
+            runtime = PolicyRuntime(args.policy, backend=backend)
+        except PolicyFileError as err:
+            raise SystemExit(f"bench_inference: {err}") from None
         latencies_us(runtime, 200, rng)  # warm-up
         lat = latencies_us(runtime, args.steps if backend == "onnx" else args.steps // 5, rng)
         result[f"{backend}_median_us"] = float(np.median(lat))
         result[f"{backend}_p99_us"] = float(np.percentile(lat, 99))
         if backend == "onnx":
             # Reference in the same process, against the machine's noise: the bare network call.
-            window = np.zeros((runtime.window, 20), dtype=np.float32)
+            window = np.zeros((runtime.window, runtime.observation_size), dtype=np.float32)
             net = timed_us(lambda _, act=runtime.action, w=window: act(w), args.steps)
             result["onnx_network_median_us"] = float(np.median(net))
             result["onnx_step_over_network"] = result["onnx_median_us"] / result["onnx_network_median_us"]

@@ -53,7 +53,7 @@ def steps_per_second(fdm, steps: int) -> float:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--steps", type=int, default=3000, help="fdm.run() calls per round and aircraft")
     parser.add_argument("--rounds", type=int, default=7, help="repeats of each measurement; the median is reported")

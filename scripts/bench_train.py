@@ -16,32 +16,32 @@ import statistics
 import tempfile
 import time
 
-import torch
-from tensordict.nn import TensorDictModule
-from torchrl.envs.utils import RandomPolicy
-
-from training.config import TrainConfig
-from training.networks import StateCriticNet, make_critic
+# torch, TorchRL and the simulation load in main(), after the arguments are parsed.
 from training.runtime import torchrl_logs_to_stderr, tune_allocator
-from training.sac_reference import SACLossReference
-from training.trainer import Trainer
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--device", default="cpu", help="torch device the update runs on (cpu, or cuda where a GPU is present)")
     parser.add_argument("--threads", type=int, default=1, help="torch threads (1, as training)")
     parser.add_argument("--updates", type=int, default=30, help="updates timed per round")
-    parser.add_argument("--critic", choices=("recurrent", "state"), default="recurrent",
-                        help="the critics' input (network.critic)")
     parser.add_argument("--rounds", type=int, default=3, help="repeats of each measurement; the median is reported")
     parser.add_argument("--json", action="store_true", help="print the figures as JSON")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
+    if min(args.updates, args.rounds) < 1:
+        parser.error("--updates and --rounds must be at least 1")
     torchrl_logs_to_stderr()
     tune_allocator()
+    import torch
+    from torchrl.envs.utils import RandomPolicy
+
+    from training.config import TrainConfig
+    from training.networks import make_critic
+    from training.sac_reference import SACLossReference
+    from training.trainer import Trainer
+
     config = TrainConfig(device=args.device, threads=args.threads)
-    config.network.critic = args.critic
     config.buffer.capacity = 20_000
     config.log.progress = False
     with tempfile.TemporaryDirectory() as tmp:
@@ -58,18 +58,15 @@ def main() -> None:
         trainer.buffer.extend(data.reshape(-1).select(*trainer.stored_keys))
         random = env.rollout(250, RandomPolicy(env.action_spec), break_when_any_done=False)
         trainer.buffer.extend(random.reshape(-1).select(*trainer.stored_keys))
-        if args.critic == "state":
-            critic = TensorDictModule(StateCriticNet(trainer.task_config.critic_state_size, config.network.mlp_hidden),
-                                      in_keys=["state", "action"], out_keys=["state_action_value"])
-        else:
-            critic = make_critic(config.network.lstm_hidden, config.network.mlp_hidden)
+        # The reference's critics: the package's recurrent ones (a fresh pair, as the trainer's).
+        critic = make_critic(config.network.lstm_hidden, config.network.mlp_hidden)
         reference = SACLossReference(
             trainer.actor, critic, env.action_spec,
             gamma=config.optim.gamma, tau=config.optim.tau, alpha=config.optim.alpha,
             auto_alpha=config.optim.auto_alpha, target_entropy=config.optim.target_entropy, lr=config.optim.lr,
             caps_kappa_temporal=config.caps.kappa_temporal, caps_kappa_spatial=config.caps.kappa_spatial,
             caps_sigma_spatial=config.caps.sigma_spatial, caps_batch_size=config.caps.batch_size,
-            caps_action_weights=config.caps.action_weights, caps_goal_aware=config.caps.goal_aware)
+            caps_action_weights=config.caps.action_weights)
 
         def time_updates(update) -> float:
             for _ in range(3):
@@ -90,7 +87,6 @@ def main() -> None:
             reference_ms.append(time_updates(lambda b: reference.update(b.to(trainer.device))))
     result = {
         "device": args.device, "threads": torch.get_num_threads(), "num_envs": config.env.num_envs,
-        "critic": args.critic,
         "batch_size": config.buffer.batch_size,
         "update_ms": statistics.median(update_ms),
         "reference_update_ms": statistics.median(reference_ms),
@@ -102,7 +98,8 @@ def main() -> None:
     per_step_s = config.optim.updates_per_step * result["update_ms"] / 1e3 + 1.0 / result["collect_env_steps_per_s"]
     result["default_run_hours_estimate"] = per_step_s * config.collector.total_frames / 3600
     print(json.dumps(result, indent=2) if args.json else "\n".join(f"{k:28s} {v}" for k, v in result.items()))
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

@@ -35,7 +35,7 @@ def measure(altitude_m: float, airspeed_eas_mps: float) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--altitude-m", type=float, default=1000.0, help="altitude above sea level, m (default 1000)")
     parser.add_argument("--veas-mps", type=float, default=10.0, help="equivalent airspeed, m/s (default 10)")

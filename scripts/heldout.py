@@ -16,16 +16,15 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 from pathlib import Path
 
-import torch
-
-from jsbsim_env.control.pid import PIDAttitudeController
-from jsbsim_env.control.factory import make_controller
-from training.evaluation.heldout import CHATTER_LIMIT, heldout_flights, heldout_scores, relative_score, surface_activity_ratios
+# torch and the simulation load in the functions, after the arguments are parsed.
 
 
 def markdown(rows: dict[str, dict]) -> str:
+    from training.evaluation.heldout import heldout_flights, surface_activity_ratios
+
     flights = list(heldout_flights())
     relative = all("relative_to_pid" in scores for scores in rows.values())
     head = ["controller", *(f"{f} {'MAE roll/pitch' if f.startswith('calm') else 'RMSE roll/pitch/β'}, deg"
@@ -43,8 +42,8 @@ def markdown(rows: dict[str, dict]) -> str:
     return "\n".join(lines)
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("runs", type=Path, nargs="*", help="run folders, each with best_policy.pt")
     parser.add_argument("--pid", action="store_true", help="also fly the PID")
@@ -52,7 +51,7 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="30 s flights, for checks")
     parser.add_argument("--pick", action="store_true",
                         help="fly the PID too and name the run best relative to it (relative_score)")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     if not args.runs and not args.pid:
         parser.error("name at least one run folder, or --pid")
     if args.pick and not args.runs:
@@ -64,7 +63,20 @@ def main() -> None:
     for run in args.runs:
         if not (run / "best_policy.pt").is_file():
             parser.error(f"{run} has no best_policy.pt")
+    import torch
+
+    from jsbsim_env.control.factory import make_controller
+    from jsbsim_env.control.pid import PIDAttitudeController
+    from jsbsim_env.control.policy import PolicyFileError, load_policy
+    from training.evaluation.heldout import CHATTER_LIMIT, heldout_scores, relative_score
+
     torch.set_num_threads(1)
+    for run in args.runs:  # every policy file read and checked before the first flight
+        try:
+            load_policy(run / "best_policy.pt")
+        except PolicyFileError as err:
+            print(f"heldout: {err}", file=sys.stderr)
+            return 2
     factories = {"PID": PIDAttitudeController} if args.pid else {}
     for run in args.runs:
         factories[run.name] = (lambda p=run / "best_policy.pt": make_controller("policy", p, backend="torch"))
@@ -80,7 +92,8 @@ def main() -> None:
             raise SystemExit(f"every run ended a held-out flight early or moved a surface more than {CHATTER_LIMIT:g} "
                              "times the PID's in calm air: none to pick")
         print(f"picked: {runs[best]} (relative to the PID {rows[best]['relative_to_pid']:.3f})")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -23,9 +23,11 @@ from pathlib import Path
 
 import numpy as np
 
+from training.runtime import OutputFolderError, check_output_folder
+
 
 def parse_args(argv=None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
                                 formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     p.add_argument("--mode", choices=("realtime", "lockstep"), default="realtime",
                    help="realtime: 25 Hz frame clock with deadlines; lockstep: wait for every answer (deterministic)")
@@ -50,8 +52,8 @@ def parse_args(argv=None) -> argparse.Namespace:
 def in_process(args) -> dict:
     """The same route, controller and seed flown in this process (``missions.fly_route``)."""
     from jsbsim_env.bench.plant import bench_route
-    from jsbsim_env.missions import fly_route
     from jsbsim_env.control.factory import make_controller
+    from jsbsim_env.missions import fly_route
 
     result = fly_route(make_controller(args.controller, args.policy),
                        bench_route(args.duration, args.seed))
@@ -73,6 +75,20 @@ def main(argv=None) -> int:
     except ValueError as exc:
         print(f"loop_bench: {exc}", file=sys.stderr)
         return 2
+    out = Path(args.out)
+    try:
+        check_output_folder(out)
+    except OutputFolderError as exc:
+        print(f"loop_bench: --out: {exc}", file=sys.stderr)
+        return 2
+    if args.controller == "policy":  # read and checked here, before the controller process starts
+        from jsbsim_env.control.policy import PolicyFileError, load_policy, shipped_policy_path
+
+        try:
+            load_policy(args.policy or shipped_policy_path())
+        except PolicyFileError as exc:
+            print(f"loop_bench: {exc}", file=sys.stderr)
+            return 2
     from tqdm import tqdm
 
     bar = tqdm(total=100, desc=f"{args.mode} flight", unit="%", file=sys.stderr, leave=False)
@@ -96,7 +112,6 @@ def main(argv=None) -> int:
         ratio = {k: (summary["tracking_rmse"][k] / v if v else None) for k, v in ref["tracking_rmse"].items()}
         summary["in_process"] = {**ref, "rmse_ratio": ratio}
     summary = json_ready(summary)
-    out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     (out / "summary.json").write_text(json.dumps(summary, indent=1))
     np.savez_compressed(out / "frames.npz", **result.frames)

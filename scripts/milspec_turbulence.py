@@ -95,7 +95,7 @@ def markdown(points: list[dict]) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--json", action="store_true", help="print the table as JSON")
     parser.add_argument("--severities", type=int, nargs="+", default=list(SEVERITIES), help="MIL-F-8785C severity levels")

@@ -13,16 +13,22 @@ from pathlib import Path
 import numpy as np
 
 from jsbsim_env.analysis.effectiveness import effectiveness, plot_effectiveness
+from training.runtime import OutputFolderError, check_output_folder
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--out", type=Path, help="folder for effectiveness.png and effectiveness.json")
     parser.add_argument("--json", action="store_true", help="print the figures as JSON")
     parser.add_argument("--veas-mps", type=float, default=10.0, help="equivalent airspeed, m/s")
     parser.add_argument("--step-km", type=float, default=2.0, help="altitude step, km")
     args = parser.parse_args()
+    if args.out is not None:
+        try:
+            check_output_folder(args.out)
+        except OutputFolderError as err:
+            parser.exit(2, f"plot_effectiveness: --out: {err}\n")
     altitudes_m = np.arange(0.0, 20000.0 + 1.0, args.step_km * 1000.0)
     rows = effectiveness(altitudes_m.tolist(), args.veas_mps)
     if args.out:

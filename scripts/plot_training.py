@@ -15,17 +15,24 @@ import json
 from pathlib import Path
 
 from training.curves import load_curve, plot_curves, run_summary
+from training.runtime import OutputFolderError, check_output_folder
 
 __all__ = ["load_curve", "main", "run_summary"]
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("runs", type=Path, nargs="+", help="run folders (each with progress.csv)")
     parser.add_argument("--out", type=Path, default=Path("fig8_training.png"), help="the figure to write")
     parser.add_argument("--final-evals", type=int, default=3, help="evaluations averaged into the final return")
     args = parser.parse_args()
+    if args.out.is_dir():
+        parser.exit(2, f"plot_training: --out: {args.out} is a folder: give the figure's file name\n")
+    try:
+        check_output_folder(args.out.parent)
+    except OutputFolderError as err:
+        parser.exit(2, f"plot_training: --out: {err}\n")
     print(json.dumps([run_summary(r, args.final_evals) for r in args.runs], indent=2))
     plot_curves(args.runs, args.out)
     print(f"wrote {args.out}")

@@ -12,13 +12,16 @@ one unless --policy is given; without either the PID parts run alone.
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
+# The experiments' and controllers' names for the help; torch and onnxruntime load when flying.
 from training.evaluation.report import CONTROLLERS, EXPERIMENTS, run_report
+from training.runtime import OutputFolderError, check_output_folder
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--out", type=Path, required=True, help="folder for report.md, the figures and metrics.json")
     parser.add_argument("--policy", type=Path, help="policy file (default: the shipped controller)")
@@ -34,8 +37,21 @@ def main(argv: list[str] | None = None) -> int:
         bad = [name for name in given if name not in known]
         if bad or not given:
             parser.error(f"unknown or no {label} {bad}: choose from {', '.join(known)}")
-    run_report(args.out, args.policy, quick=args.quick, progress=not args.no_progress, experiments=experiments,
-               controllers=controllers)
+    try:
+        check_output_folder(args.out)
+    except OutputFolderError as err:
+        print(f"report: --out: {err}", file=sys.stderr)
+        return 2
+    from jsbsim_env.control.policy import PolicyFileError, load_policy
+
+    try:
+        if args.policy is not None and "RL" in controllers and args.policy.exists():
+            load_policy(args.policy)  # read and checked before the first flight (run_report names a missing one)
+        run_report(args.out, args.policy, quick=args.quick, progress=not args.no_progress, experiments=experiments,
+                   controllers=controllers)
+    except PolicyFileError as err:
+        print(f"report: {err}", file=sys.stderr)
+        return 2
     print(f"wrote {args.out / 'report.md'}")
     return 0
 

@@ -13,30 +13,47 @@ from __future__ import annotations
 import argparse
 import json
 import shutil
+import sys
 from pathlib import Path
 
-import torch
-
-from training.config import TrainConfig
-from jsbsim_env.control.policy import SHIPPED_POLICY, PolicyRuntime, export_onnx, load_policy, policy_digest
-from training.provenance import read_sessions, training_wall_clock
-from training.evaluation.suite import evaluate
+# torch and the simulation load in main(), after the arguments are parsed.
+from training.runtime import OutputFolderError, check_output_folder
 
 SHIPPED_DIR = Path(__file__).resolve().parents[1] / "jsbsim_env" / "control" / "shipped"
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("run_dir", type=Path)
     parser.add_argument("--command", help="the training command, for a run without sessions.jsonl")
     parser.add_argument("--commit", help="the commit it was trained at, for a run without sessions.jsonl")
     parser.add_argument("--episodes", type=int, default=50, help="evaluation-suite episodes for the record")
     parser.add_argument("--cores", type=int, help="CPU cores the run trained on, for a run whose sessions do not say")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
+    if args.episodes < 1:
+        parser.error(f"--episodes must be at least 1, got {args.episodes}")
+    import torch
+
+    from jsbsim_env.control.policy import (
+        SHIPPED_POLICY,
+        PolicyFileError,
+        PolicyRuntime,
+        export_onnx,
+        load_policy,
+        policy_digest,
+    )
+    from training.config import TrainConfig
+    from training.evaluation.suite import evaluate
+    from training.provenance import read_sessions, training_wall_clock
+
     torch.set_num_threads(1)
     source = args.run_dir / "best_policy.pt"
-    actor, meta = load_policy(source)  # a clear error for a missing or broken file, before anything is copied
+    try:  # a clear error for a missing or broken file, before anything is copied
+        actor, meta = load_policy(source)
+    except PolicyFileError as err:
+        print(f"ship_policy: {err}", file=sys.stderr)
+        return 2
     sessions = read_sessions(args.run_dir)
     recorded_from_start = bool(sessions) and sessions[0]["frames_at_start"] == 0
     if recorded_from_start and (args.command or args.commit):
@@ -50,16 +67,29 @@ def main() -> None:
     cores = {s["cpu_cores"] for s in sessions if "cpu_cores" in s} | ({args.cores} if args.cores else set())
     if len(cores) != 1:
         parser.error(f"the cores the run trained on are {'unknown: give --cores' if not cores else sorted(cores)}")
-    wall = training_wall_clock(args.run_dir, int(meta["frames"]))
+    try:
+        wall = training_wall_clock(args.run_dir, int(meta["frames"]))
+    except ValueError as err:
+        parser.error(str(err))
     models = {s.get("aircraft_model") for s in sessions}
     if len(models) > 1:
         parser.error(f"{args.run_dir} was trained on more than one aircraft model ({sorted(map(str, models))})")
-    config = json.loads((args.run_dir / "config.json").read_text())
-    trained = TrainConfig.from_dict(config).env  # settings the run predates take the values it trained with
+    config_path = args.run_dir / "config.json"
+    try:
+        config = json.loads(config_path.read_text())
+        TrainConfig.from_dict(config)  # a run of this version of the package, with a task version it has
+    except (OSError, ValueError) as err:
+        parser.error(f"{config_path}: {err}")
+    try:
+        check_output_folder(SHIPPED_DIR)
+    except OutputFolderError as err:
+        print(f"ship_policy: {err}", file=sys.stderr)
+        return 2
     SHIPPED_DIR.mkdir(parents=True, exist_ok=True)
     target = SHIPPED_DIR / SHIPPED_POLICY
     shutil.copyfile(source, target)
-    export_onnx(actor, target.with_suffix(".onnx"), int(meta["window"]), policy_digest(target))
+    stack = meta["stack"]  # the control stack the policy was trained with and flies with
+    export_onnx(actor, target.with_suffix(".onnx"), stack.window_steps, policy_digest(target))
     results = evaluate(PolicyRuntime(target), episodes=args.episodes, plot_dir=None)
     record = {
         "command": sessions[0]["command"], "commit": sessions[0]["commit"], "sessions": sessions,
@@ -70,16 +100,16 @@ def main() -> None:
         "run_wall_clock_s": wall["whole_run_s"], "run_frames": wall["frames"],
         "training_evaluation": meta["evaluation"],
         "config": config,
-        # flight-time settings: scripts/set_trims.py may have set them after training
-        "goal_trim_s": meta["goal_trim_s"],
-        "goal_trim_set_after_training": trained.goal_trim_s != meta["goal_trim_s"],
-        "integral_trim": meta["integral_trim"],
-        "integral_trim_set_after_training": trained.flown_integral_trim != meta["integral_trim"],
+        # what the policy was trained on and flies with: the task version (None in a policy file
+        # written before it was recorded) and the control stack's settings
+        "task": meta.get("task"),
+        "stack": stack.to_dict(),
         "evaluation": results,
     }
     target.with_suffix(".json").write_text(json.dumps(record, indent=2, default=float))
     print(json.dumps({k: v for k, v in record.items() if k != "config"}, indent=2, default=float))
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

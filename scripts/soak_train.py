@@ -25,6 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
+from training.runtime import OutputFolderError, check_output_folder
+
 
 def rss_mib(pid: int) -> float | None:
     """Resident set size of a process, MiB (None once it has exited)."""
@@ -83,7 +85,7 @@ def plot_memory(rows: np.ndarray, capacity: int, path: Path) -> None:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
                                 formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     p.add_argument("--out", type=Path, required=True, help="soak folder (the run is OUT/run)")
     p.add_argument("--frames", type=int, default=1_000_000, help="env steps in all")
@@ -94,6 +96,11 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     if not Path("/proc/self/status").exists():
         p.error("the soak reads memory from /proc, which this system lacks")
+    try:
+        check_output_folder(args.out)
+    except OutputFolderError as err:
+        print(f"soak: --out: {err}", file=sys.stderr)
+        return 2
     args.out.mkdir(parents=True, exist_ok=True)
     run_dir = args.out / "run"
     common = ["--collector.total_frames", str(args.frames), "--log.progress", "false"]

@@ -24,13 +24,15 @@ from pathlib import Path
 
 import numpy as np
 
-from jsbsim_env.task.metrics import json_ready
+# None of these loads torch, ray or onnxruntime: those load when flying, after the arguments are parsed.
 from jsbsim_env.control.factory import CONTROLLER_NAMES
+from jsbsim_env.task.metrics import json_ready
 from training.evaluation.sweep import AXIS_UNITS, breaking_points, grid, jobs_for, parse_axis, run_local, run_ray
+from training.runtime import OutputFolderError, check_output_folder
 
 
 def parse_args(argv=None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
                                 formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     p.add_argument("--axis", action="append", default=[], metavar="NAME=V1,V2,...",
                    help=f"an axis and its values (repeatable): {', '.join(f'{k} ({v})' for k, v in AXIS_UNITS.items())}")
@@ -101,6 +103,19 @@ def main(argv=None) -> int:
     except ValueError as err:
         print(f"sweep: {err}", file=sys.stderr)
         return 2
+    try:
+        check_output_folder(args.out)
+    except OutputFolderError as err:
+        print(f"sweep: --out: {err}", file=sys.stderr)
+        return 2
+    if "policy" in controllers:  # read and checked once here, not in every worker
+        from jsbsim_env.control.policy import PolicyFileError, load_policy, shipped_policy_path
+
+        try:
+            load_policy(args.policy or shipped_policy_path())
+        except PolicyFileError as err:
+            print(f"sweep: {err}", file=sys.stderr)
+            return 2
     from tqdm import tqdm
 
     jobs = jobs_for(controllers, grid(axes), args.episodes)

@@ -17,7 +17,7 @@ from jsbsim_env.sim.simulation import Simulation, TrimError
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--altitude-m", type=float, required=True, help="altitude above sea level, m (0-20000)")
     parser.add_argument("--veas-mps", type=float, required=True, help="equivalent airspeed, m/s (8-12)")

@@ -13,13 +13,20 @@ import argparse
 from pathlib import Path
 
 from jsbsim_env.control.pid import GAINS_PATH, write_gain_table
+from training.runtime import OutputFolderError, check_output_folder
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--out", type=Path, default=GAINS_PATH, help="gain table to write")
     args = parser.parse_args(argv)
+    if args.out.is_dir():
+        parser.exit(2, f"tune_pid: --out: {args.out} is a folder: give the gain table's file name\n")
+    try:  # before the tuning, which takes a while
+        check_output_folder(args.out.parent)
+    except OutputFolderError as err:
+        parser.exit(2, f"tune_pid: --out: {err}\n")
 
     def show(row: dict) -> None:
         print(" ".join(f"{k}={v:.4g}" for k, v in row.items()), flush=True)

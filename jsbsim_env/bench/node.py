@@ -152,7 +152,7 @@ def _write_json_atomically(path: Path, data: dict) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--device", required=True, help="serial device path (a pty of the bench, or /dev/ttyUSB0)")
     parser.add_argument("--baud", type=int, default=115200, help="line rate, bit/s")

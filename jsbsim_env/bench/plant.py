@@ -36,8 +36,8 @@ from jsbsim_env.bench.link import EmulatedLine, Faults, open_pty
 from jsbsim_env.bench.node import percentiles_ms
 from jsbsim_env.bench.wire import PLANT_SYSTEM_ID, decode_command, encode_state, heartbeat, is_crc_error, new_link
 from jsbsim_env.control.pid import PIDAttitudeController
-from jsbsim_env.sim.core import COMMAND_HIGH, COMMAND_LOW
 from jsbsim_env.missions import MissionResult, RouteConfig, RouteFlight
+from jsbsim_env.sim.core import COMMAND_HIGH, COMMAND_LOW
 
 NETWORK, HOLD, PID = 0, 1, 2
 SOURCE_NAMES = ("network", "hold", "pid")
@@ -122,21 +122,33 @@ class BenchResult:
     mission: MissionResult
 
 
+def child_python_env() -> dict[str, str]:
+    """The environment of a child Python process that must import the very modules this process
+    imported (the same ``jsbsim_env``, the same ``aircraft``): this process's ``sys.path``, as
+    absolute folders, on ``PYTHONPATH``. Run the child in a folder without Python packages too
+    (``_ControllerProcess`` runs it in its temporary folder): ``python -m`` puts the current
+    folder first on the child's path, ahead of ``PYTHONPATH``, and a checkout there would be
+    imported in place of what this process imported."""
+    path = [os.path.abspath(entry or os.curdir) for entry in sys.path]
+    return {**os.environ, "PYTHONPATH": os.pathsep.join(dict.fromkeys(path)), "OMP_NUM_THREADS": "1"}
+
+
 class _ControllerProcess:
-    """The controller node in a child process on the pty's slave side."""
+    """The controller node in a child process on the pty's slave side, importing the package from
+    where this process imported it (``child_python_env``), run in ``stats_path``'s folder."""
 
     def __init__(self, cfg: BenchConfig, device: str, stats_path: Path):
+        stats_path = stats_path.resolve()
         cmd = [sys.executable, "-m", "jsbsim_env.bench.node", "--device", device, "--baud", str(cfg.baud),
                "--controller", cfg.controller, "--rate-hz", str(cfg.rate_hz), "--stats", str(stats_path)]
         if cfg.policy:
-            cmd += ["--policy", str(cfg.policy)]
+            cmd += ["--policy", str(Path(cfg.policy).resolve())]  # the child runs in another folder
         f = cfg.faults
         if f.stall_at_s is not None:
             cmd += ["--faults", f"stall_at={f.stall_at_s},stall_s={f.stall_s}"]
         self.stats_path = stats_path
         self.stderr = tempfile.TemporaryFile()  # noqa: SIM115 - open while the process lives
-        env = {**os.environ, "OMP_NUM_THREADS": "1"}
-        self.proc = subprocess.Popen(cmd, stderr=self.stderr, env=env)
+        self.proc = subprocess.Popen(cmd, stderr=self.stderr, env=child_python_env(), cwd=stats_path.parent)
 
     def check_alive(self) -> None:
         if self.proc.poll() is not None:
