@@ -15,7 +15,8 @@ from .geometry import AircraftGeometry
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
+                                     allow_abbrev=False)
     parser.add_argument("--from-data", action="store_true",
                         help="skip the aerodynamic analysis and write the XML from the saved data set")
     args = parser.parse_args(argv)

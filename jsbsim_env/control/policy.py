@@ -29,7 +29,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from jsbsim_env.control.checked_io import checked_load, non_finite_entries
+from jsbsim_env.control.checked_io import DamagedFileError, checked_load, non_finite_entries
 from jsbsim_env.control.network import ActorNet
 from jsbsim_env.control.observation import OBS_SIZE, ActionError
 from jsbsim_env.control.stack import ControlStack, StackSettings
@@ -94,8 +94,8 @@ def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
         raise PolicyFileError(f"no policy file at {path}")
     try:
         data = checked_load(path)
-    except Exception as err:  # a damaged file, or one that is not a policy file at all
-        raise PolicyFileError(f"{path} is not a usable policy file: {err}") from err
+    except DamagedFileError as err:  # damaged, or not a file of this package at all; it names the file
+        raise PolicyFileError(str(err)) from err
     if not isinstance(data, dict) or "actor" not in data or "network" not in data:
         raise PolicyFileError(f"{path} is not a policy file of this package (no actor network in it)")
     try:
@@ -120,7 +120,8 @@ def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
     except Exception as err:  # missing keys and shape mismatches all mean the same here
         raise PolicyFileError(f"{path} is not a usable policy file: {err}") from err
     actor = DeterministicActor(net).eval()
-    meta = {k: v for k, v in data.items() if k != "actor"}
+    # The stack replaces the flat settings an older file records it with.
+    meta = {k: v for k, v in data.items() if k != "actor" and k not in _FLAT_DEFAULTS}
     meta["stack"] = stack
     return actor, meta
 

@@ -24,8 +24,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import expm
-from scipy.optimize import minimize
 
 from jsbsim_env.analysis.modes import control_derivatives, linearise
 from jsbsim_env.sim.simulation import Simulation
@@ -82,6 +80,7 @@ class LinearPlant:
 
 def discretise(a: np.ndarray, b: np.ndarray, lags_s: tuple[float, ...], dt_s: float) -> tuple[np.ndarray, np.ndarray]:
     """Plant with first-order actuators (states: plant, then actuator positions), zero-order hold."""
+    from scipy.linalg import expm  # here, not at the top: importing the package stays light
     n, m = b.shape
     ac = np.zeros((n + m, n + m))
     ac[:n, :n] = a
@@ -249,6 +248,7 @@ class LoopDesign:
 
 def tune(design: LoopDesign, start: np.ndarray | None = None, max_evaluations: int = 1500) -> np.ndarray:
     """Gains that minimise ``LoopDesign.cost`` subject to the robustness cases (module docstring)."""
+    from scipy.optimize import minimize  # here, not at the top: importing the package stays light
     start = (LAT_START if design.lateral else LONG_START) if start is None else np.asarray(start, float)
     signed = 4 if design.lateral else None  # the sideslip gain may take either sign
 

@@ -19,7 +19,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import signal
 
 FT_TO_M = 0.3048
 KNOT_TO_MPS = 1852.0 / 3600.0
@@ -172,6 +171,7 @@ def gradient_rate_gusts(w_mps: np.ndarray, v_mps: np.ndarray, airspeed_mps: floa
     The filters start at rest, as the series do; any field can be put through, a Dryden one or a
     test's sinusoid.
     """
+    from scipy import signal  # here, not at the top: importing the package stays light
     f = gradient_rate_filters(airspeed_mps, span_m, dt_s)
     return signal.lfilter(*f["q"], w_mps), signal.lfilter(*f["r"], v_mps)
 
@@ -252,6 +252,7 @@ def dryden_series(n_steps: int, altitude_m: float, airspeed_mps: float, span_m: 
     noise of two-sided density pi: variance pi/dt per sample. ``intensity``, ``sigma_mps``: see
     ``intensities_mps``; ``clip``: see ``clip_limits``.
     """
+    from scipy import signal  # here, not at the top: importing the package stays light
     v = max(airspeed_mps, 1.0)
     sigmas = intensities_mps(altitude_m, intensity, sigma_mps)
     filters = dryden_filters(altitude_m, v, span_m, sigmas, dt_s)
