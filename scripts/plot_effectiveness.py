@@ -1,4 +1,4 @@
-"""SPEC Fig. 10: actuator effectiveness against altitude at EAS 10 m/s, normalised to sea level.
+"""The paper's Fig. 10: actuator effectiveness against altitude at EAS 10 m/s, normalised to sea level.
 
     python scripts/plot_effectiveness.py --out results/effectiveness   # PNG + JSON
     python scripts/plot_effectiveness.py --json                         # figures only

@@ -1,4 +1,4 @@
-"""SPEC Fig. 8: episode length and normalised return against environment steps, mean and spread
+"""The paper's Fig. 8: episode length and normalised return against environment steps, mean and spread
 over the runs given (one per seed), from their ``progress.csv``; and the evaluation return against
 training wall-clock.
 

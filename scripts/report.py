@@ -1,4 +1,4 @@
-"""Run the paper's experiments (SPEC section 4 items 2-8) and write a report with plots.
+"""Run the paper's experiments (its Section 5) and write a report with plots.
 
     python scripts/report.py --out results/report             # full (a few minutes)
     python scripts/report.py --out /tmp/report --quick        # seconds, for checks

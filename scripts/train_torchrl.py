@@ -1,8 +1,8 @@
-"""Train the recurrent SAC attitude controller (defaults: SPEC section 3, with the changes the README gives).
+"""Train the recurrent SAC attitude controller (defaults: the task version SolarUAVAttitude-v1 and the settings of training/config.py; docs/training.md).
 
     python scripts/train_torchrl.py                         # default run, folder runs/<name>
     python scripts/train_torchrl.py --seed 1 --collector.total_frames 50000
-    python scripts/train_torchrl.py --env.task SolarUAVAttitude-v0   # the paper's task (SPEC section 3)
+    python scripts/train_torchrl.py --env.task SolarUAVAttitude-v0   # the paper's task (its Section 3.4)
     python scripts/train_torchrl.py --resume runs/<name>    # continue a stopped run
     python scripts/train_torchrl.py --help                  # every setting
 """
