@@ -34,8 +34,8 @@ from jsbsim_env.control.l1 import G_MPS2, L1Guidance, L1Params
 from jsbsim_env.control.pid import GainSchedule
 from jsbsim_env.control.tecs import TECS, TECSParams
 from jsbsim_env.sim.core import CoreConfig, FlightCore
-from jsbsim_env.task.metrics import actuator_smoothness, rmse
 from jsbsim_env.task.attitude import EAS_INDEX
+from jsbsim_env.task.metrics import actuator_smoothness, rmse
 
 ATTITUDE_EAS_DEMANDS = ("measured", "route")
 RECTANGLE_ALTITUDE_M = 10_000.0  # the default rectangle's legs are drawn for this altitude (the paper's route)

@@ -1,4 +1,4 @@
-"""Train the recurrent SAC attitude controller (defaults: the task version SolarUAVAttitude-v1 and the settings of training/config.py; docs/training.md).
+"""Train the recurrent SAC attitude controller (the task version SolarUAVAttitude-v1 by default).
 
     python scripts/train_torchrl.py                         # default run, folder runs/<name>
     python scripts/train_torchrl.py --seed 1 --collector.total_frames 50000

@@ -5,14 +5,11 @@ another configuration."""
 from __future__ import annotations
 
 import hashlib
-import io
 import json
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
-from jsbsim_env.control.checked_io import (  # noqa: F401 - re-exported for the trainer
+from jsbsim_env.control.checked_io import (
     DamagedFileError,
     atomic_save,
     checked_load,

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..jsbsim_format import HEADER, INERTIA_SCALE, M_TO_FT, TERMS, fmt, reset_file  # noqa: F401 - the generator's vocabulary
+from ..jsbsim_format import HEADER, INERTIA_SCALE, M_TO_FT, TERMS, fmt, reset_file
 from .geometry import AircraftGeometry
 
 # JSBSim takes LIFT, DRAG and SIDE in its wind axes and ROLL, PITCH, YAW in body axes.

@@ -49,7 +49,6 @@ from jsbsim_env.control.pid import GainSchedule, PIDAttitudeController
 from jsbsim_env.control.trims import SurfaceTrim, check_surface_trim_gain
 from jsbsim_env.sim.core import (
     N_STATE,
-    STATE_NAMES,
     CoreConfig,
     FlightCore,
     envelope_code,

@@ -27,8 +27,8 @@ from pathlib import Path
 import numpy as np
 
 import aircraft
-from jsbsim_env.control.pid import PIDAttitudeController
 from jsbsim_env.analysis.effectiveness import effectiveness, plot_effectiveness
+from jsbsim_env.control.pid import PIDAttitudeController
 from jsbsim_env.missions import MissionResult, RouteConfig, fly_route
 
 REPORT_SEED = 2023

@@ -29,8 +29,8 @@ import numpy as np
 
 from jsbsim_env.control.base import AttitudeController
 from jsbsim_env.sim.core import CoreConfig, termination_reason
-from jsbsim_env.task.metrics import EpisodeRecorder
 from jsbsim_env.task.attitude import AttitudeTaskBatch, TaskConfig, action_to_command, command_to_action
+from jsbsim_env.task.metrics import EpisodeRecorder
 
 DOUBLET_ALTITUDES_M = (500.0, 5000.0, 15000.0)
 DOUBLET_END_S = 80.0

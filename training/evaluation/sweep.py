@@ -97,8 +97,8 @@ class Job:
 
 def run_job(job: Job, policy: str | None = None) -> list[dict]:
     """Fly a job's episodes; one row per episode (the table's schema: ``ROW_FIELDS``)."""
-    from jsbsim_env.sim.trim_table import TrimTable
     from jsbsim_env.control.factory import make_controller
+    from jsbsim_env.sim.trim_table import TrimTable
     from training.evaluation.suite import fly
 
     TrimTable.forget_shared()  # the job's numbers must not depend on what this process flew before
