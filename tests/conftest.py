@@ -16,8 +16,9 @@ Shared fixtures:
 | ``tiny_config`` | ``tiny_config(total_frames=192, seed=3)``: a ``TrainConfig`` that trains in seconds |
 | ``tiny_args`` | ``tiny_args(total_frames=96, seed=3)``: the same settings as command-line options of ``scripts/train_torchrl.py`` |
 | ``load_script`` | ``load_script("evaluate")``: a script under ``scripts/`` imported as a module, to call its functions |
-| ``untrained_policy`` | ``untrained_policy(path, seed=1, task=None)``: a policy file the trainer writes from freshly initialised networks |
-| ``untrained_run`` | ``untrained_run(root, name, seed)``: a run folder with such a policy (the paper's task, no trims) and a progress log |
+| ``untrained_trainer`` | ``untrained_trainer(run_dir, seed=1, task=None)``: a ``Trainer`` with freshly initialised networks of the default size |
+| ``untrained_policy`` | ``untrained_policy(path, seed=1, task=None)``: the policy file such a trainer writes |
+| ``untrained_run`` | ``untrained_run(root, name, seed)``: a run folder with such a policy (the paper's task: no trims) and a progress log |
 """
 
 import os
@@ -94,10 +95,9 @@ def import_script(name: str):
     return module
 
 
-def write_untrained_policy(path: Path, seed: int = 1, task: str | None = None, trainer_dir: Path | None = None) -> Path:
-    """A policy file written by the trainer from freshly initialised networks of the default size
-    (of task version ``task``; the latest when None). The trainer's run folder is ``trainer_dir``
-    (beside the policy file when None)."""
+def make_untrained_trainer(run_dir: Path, seed: int = 1, task: str | None = None):
+    """A trainer with freshly initialised networks of the default size (task version ``task``; the
+    latest when None) that trains nothing: one aircraft, a replay buffer of ten."""
     from training.config import TrainConfig
     from training.trainer import Trainer
 
@@ -105,15 +105,21 @@ def write_untrained_policy(path: Path, seed: int = 1, task: str | None = None, t
     c.env.num_envs, c.buffer.capacity, c.log.progress = 1, 10, False
     if task is not None:
         c.env.task = task
+    return Trainer(c, run_dir)
+
+
+def write_untrained_policy(path: Path, seed: int = 1, task: str | None = None, trainer_dir: Path | None = None) -> Path:
+    """The policy file ``make_untrained_trainer`` writes; its run folder is ``trainer_dir`` (beside
+    the policy file when None)."""
     path = Path(path)
-    Trainer(c, trainer_dir or path.parent / f"{path.stem}_run").save_policy(path, {"return_norm": 0.0})
+    trainer = make_untrained_trainer(trainer_dir or path.parent / f"{path.stem}_run", seed, task)
+    trainer.save_policy(path, {"return_norm": 0.0})
     return path
 
 
 def write_untrained_run(root: Path, name: str, seed: int) -> Path:
-    """A run folder ``root/name`` (the trainer's) holding an untrained policy of the paper's task (the network
-    alone: an untrained one ends a held-out flight early, which tests rely on; the latest task's
-    trims would hold it up) and a progress log of two rows."""
+    """A run folder ``root/name`` (the trainer's) holding an untrained policy of the paper's task
+    (SolarUAVAttitude-v0: the network alone, the quickest to fly) and a progress log of two rows."""
     run = Path(root) / name
     write_untrained_policy(run / "best_policy.pt", seed, task="SolarUAVAttitude-v0", trainer_dir=run)
     (run / "progress.csv").write_text("frames,wall_s\n0,0.5\n0,12.0\n")
@@ -133,6 +139,11 @@ def tiny_args():
 @pytest.fixture(scope="session")
 def load_script():
     return import_script
+
+
+@pytest.fixture(scope="session")
+def untrained_trainer():
+    return make_untrained_trainer
 
 
 @pytest.fixture(scope="session")

@@ -12,8 +12,8 @@ import pytest
 import aircraft
 from aircraft.design import aero_data, xml_writer
 from aircraft.design.geometry import AircraftGeometry
-from jsbsim_env.sim.model_check import COEFFICIENT_TERMS
 from jsbsim_env.analysis.runscripts import RUNS
+from jsbsim_env.sim.model_check import COEFFICIENT_TERMS
 from jsbsim_env.sim.simulation import FT_TO_M, LBF_TO_N, SLUG_FT2_TO_KG_M2, ModelError, Simulation
 
 

@@ -1,4 +1,5 @@
-"""Every script's ``--help`` names each option's default (and so its unit, in the help text)."""
+"""Every script's ``--help`` names each option's default (and so its unit, in the help text), and no
+script takes an abbreviated option (a prefix of a removed option would otherwise still parse)."""
 
 import argparse
 import runpy
@@ -36,6 +37,7 @@ def test_every_option_says_what_it_is_and_its_default(script, monkeypatch):
     parser = _parser_of(script, monkeypatch)
     if parser is None:
         pytest.skip(f"{script.name} takes no options")
+    assert not parser.allow_abbrev, f"{script.name} takes abbreviated options"
     shows_defaults = parser.formatter_class is argparse.ArgumentDefaultsHelpFormatter
     for action in parser._actions:
         if not action.option_strings or action.help == argparse.SUPPRESS or isinstance(action, argparse._HelpAction):

@@ -16,7 +16,6 @@ import aircraft
 import jsbsim_env
 from jsbsim_env.sim import disturbances as dist
 from jsbsim_env.sim.core import NOISE_SIGMA, CommandError, CoreConfig, Envelope, FlightCore
-from jsbsim_env.task.metrics import EpisodeRecorder, actuator_smoothness, rmse, smoothness
 from jsbsim_env.sim.simulation import TERRAIN_ELEVATION_M
 from jsbsim_env.task.attitude import (
     GOAL_HIGH,
@@ -29,6 +28,7 @@ from jsbsim_env.task.attitude import (
     command_to_action,
     reward_terms,
 )
+from jsbsim_env.task.metrics import EpisodeRecorder, actuator_smoothness, rmse, smoothness
 from jsbsim_env.task.torchrl_env import SolarUAVAttitudeEnv, make_env
 
 
@@ -57,15 +57,11 @@ def test_torchrl_specs_plain_and_with_training_transforms():
     from torchrl.envs.utils import check_env_specs
 
     check_env_specs(SolarUAVAttitudeEnv(2, seed=3))
-    with_state = SolarUAVAttitudeEnv(2, seed=3, critic_state=True)
-    check_env_specs(with_state)
-    assert with_state.rollout(2)["next", "state"].shape == (2, 2, TaskConfig().critic_state_size)
     env = make_env(2, seed=3)
     check_env_specs(env)
     td = env.rollout(10, break_when_any_done=False)
-    keys = set(td.keys(include_nested=True))
-    assert "state" not in keys and ("next", "state") not in keys  # the critics' state: only when asked
     assert td["next", "observation"].shape == (2, 10, 8, OBS_SIZE)
+    assert make_env(1, seed=3, window=3).rollout(2)["next", "observation"].shape == (1, 2, 3, OBS_SIZE)
     # The window holds the last 8 observations, oldest first.
     torch.testing.assert_close(td["next", "observation"][:, 3, -2], td["next", "observation"][:, 2, -1])
     assert td["next", "step_count"][:, -1].flatten().tolist() == [10, 10]
@@ -84,7 +80,7 @@ def test_torchrl_partial_reset_keeps_the_other_aircraft():
     assert td["next", "reward_terms"].shape == (2, 4)
 
 
-# The scaled observation has no hard bounds (rates, error integrals), so its Box is unbounded on
+# The scaled observation has no hard bounds (rates, altitude), so its Box is unbounded on
 # purpose; the checker's advice about that is the only thing it says.
 @pytest.mark.filterwarnings("ignore:.*A Box observation space (minimum|maximum) value is:UserWarning")
 def test_gymnasium_env_passes_check_env():

@@ -11,9 +11,10 @@ from pathlib import Path
 
 import numpy as np
 
+from jsbsim_env.control.checked_io import atomic_save, checked_load
+from jsbsim_env.control.policy import shipped_policy_path
 from training.evaluation import heldout
 from training.evaluation.heldout import heldout_flights, relative_score
-from jsbsim_env.control.policy import shipped_policy_path
 from training.evaluation.report import ROUTE_SEED
 
 SCRIPT = Path(__file__).resolve().parents[1] / "scripts" / "heldout.py"
@@ -63,8 +64,18 @@ def test_a_chattering_surface_is_refused_whatever_its_errors():
     assert math.isclose(relative_score(busy, pid), 0.5)
 
 
+def _full_aileron(run: Path) -> None:
+    """Make the run's policy command full aileron whatever it observes: it rolls past the envelope's
+    limit and ends every flight early."""
+    path = run / "best_policy.pt"
+    data = checked_load(path)
+    data["actor"]["module.0.module.head.4.bias"][0] = 20.0  # the aileron's pre-tanh mean
+    atomic_save(data, path)
+
+
 def test_heldout_scores_runs_and_the_pid(tmp_path, untrained_run):
     run = untrained_run(tmp_path, "cand_seed0", 0)
+    _full_aileron(run)
     command = [sys.executable, str(SCRIPT), str(run), "--pid", "--quick"]
     done = subprocess.run([*command, "--json"], check=False, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
@@ -76,7 +87,8 @@ def test_heldout_scores_runs_and_the_pid(tmp_path, untrained_run):
         assert set(scores["turbulent_5km"]) == {"rmse_roll_deg", "rmse_pitch_deg", "rmse_beta_deg"}
         assert set(scores["calm_15km"]) == {"mae_roll_deg", "mae_pitch_deg"}
     assert rows["PID"]["relative_to_pid"] == 1.0 and rows["cand_seed0"]["relative_to_pid"] > 0
-    # The untrained policy ends a flight early, so --pick refuses it and picks the shipped one.
+    assert rows["cand_seed0"]["ended_early"] and not rows["PID"]["ended_early"]
+    # The policy ends a flight early, so --pick refuses it and picks the shipped one.
     refused = subprocess.run([*command, "--pick"], check=False, capture_output=True, text=True, timeout=600)
     assert refused.returncode != 0 and "none to pick" in refused.stderr
     shipped = tmp_path / "shipped_seed1"

@@ -1,63 +1,63 @@
-"""The deployed controller: loading, ONNX export against PyTorch, the runtime's window and mapping."""
+"""The deployed controller: loading, ONNX export against PyTorch, the runtime's window, stack and mapping."""
 
 from __future__ import annotations
 
+import dataclasses
 import re
 
 import numpy as np
 import pytest
 import torch
 
-from jsbsim_env.control.goal_trim import GoalTrim
-from jsbsim_env.task.attitude import (
-    OBS_OFFSET,
-    OBS_SCALE,
-    OBS_SIZE,
-    TRIM_SCALE_DEG,
-    ActionError,
-    AttitudeTask,
-    TaskConfig,
-    action_to_command,
-)
-from training.checkpoint import atomic_save, checked_load
-from training.config import TrainConfig
-from jsbsim_env.control.policy import (
-    PolicyFileError,
-    PolicyRuntime,
-    export_onnx,
-    load_policy,
-    policy_digest,
-    set_goal_trim,
-    set_integral_trim,
-)
-from training.trainer import Trainer
+from jsbsim_env.control.checked_io import atomic_save, checked_load
+from jsbsim_env.control.observation import OBS_SIZE, ActionError, action_to_command
+from jsbsim_env.control.policy import PolicyFileError, PolicyRuntime, export_onnx, load_policy
+from jsbsim_env.control.stack import StackSettings
+from jsbsim_env.task.attitude import AttitudeTask, TaskConfig
+from jsbsim_env.task.versions import LATEST, V0, V1
+
+LEVEL = np.array([10000.0, 0, 0, 0, 0, 0, 10.0, 0, 0, 0, 0, 0, 0.5])  # scales to zeros, as does GOAL
+GOAL = np.array([0.0, 0.0, 10.0])
 
 
 @pytest.fixture(scope="module")
-def policy_file(tmp_path_factory):
-    """A policy file written by the trainer from freshly initialised networks."""
+def trained(tmp_path_factory, untrained_trainer):
+    """A policy file written by the trainer (the latest task version) from freshly initialised networks."""
     run = tmp_path_factory.mktemp("run")
-    c = TrainConfig(seed=1)
-    c.env.num_envs = 1
-    c.buffer.capacity = 10
-    c.log.progress = False
-    trainer = Trainer(c, run)
+    trainer = untrained_trainer(run, seed=1)
     path = run / "policy.pt"
     trainer.save_policy(path, {"return_norm": 0.0})
     return path, trainer
 
 
-def test_loaded_policy_is_the_trainers_deterministic_actor(policy_file):
-    path, trainer = policy_file
+@pytest.fixture(scope="module")
+def policy_file(trained):
+    return trained[0]
+
+
+def _with(path, tmp_path, name: str = "policy.pt", drop=(), **entries):
+    """A copy of the policy file at ``path`` with ``entries`` set and the keys ``drop`` left out."""
+    data = checked_load(path)
+    for key in drop:
+        data.pop(key)
+    data.update(entries)
+    out = tmp_path / name
+    atomic_save(data, out)
+    return out
+
+
+def test_loaded_policy_is_the_trainers_deterministic_actor(trained):
+    path, trainer = trained
     actor, meta = load_policy(path)
-    assert meta["window"] == 8 and meta["seed"] == 1
+    assert meta["seed"] == 1 and meta["task"] == LATEST
+    assert isinstance(meta["stack"], StackSettings) and meta["stack"] == V1.flight_stack == StackSettings(8, 20.0, 2.0)
     window = torch.randn(5, 8, OBS_SIZE)
     loc, _ = trainer.actor.module[0].module(window)
     torch.testing.assert_close(actor(window), torch.tanh(loc))
 
 
 def test_onnx_export_gives_the_pytorch_actions(policy_file, tmp_path):
-    path, _ = policy_file
+    path = policy_file
     actor, _ = load_policy(path)
     onnx_path = export_onnx(actor, tmp_path / "policy.onnx")
     import onnxruntime as ort
@@ -71,7 +71,7 @@ def test_onnx_export_gives_the_pytorch_actions(policy_file, tmp_path):
 
 
 def test_runtime_window_matches_catframes_and_backends_agree(policy_file, tmp_path):
-    path, _ = policy_file
+    path = policy_file
     runtime_onnx = PolicyRuntime(path, backend="onnx")
     runtime_torch = PolicyRuntime(path, backend="torch")
     obs = [np.full(OBS_SIZE, float(k), np.float32) for k in range(10)]
@@ -84,19 +84,20 @@ def test_runtime_window_matches_catframes_and_backends_agree(policy_file, tmp_pa
     for k in range(10):
         a, b = runtime_onnx.act_scaled(obs[k]), runtime_torch.act_scaled(obs[k])
         np.testing.assert_allclose(a, b, atol=1e-5)
-    command = runtime_torch.act(np.zeros(13), np.array([0.0, 0.0, 10.0]), 0.04)
+    assert runtime_onnx.window == 8 and runtime_onnx.observation_size == OBS_SIZE
+    command = runtime_torch.act(np.zeros(13), GOAL, 0.04)
     assert command.shape == (4,) and -30 <= command[0] <= 30 and 0 <= command[3] <= 1
     runtime_torch.reset()
     a = runtime_torch.action(runtime_torch.push(np.zeros(OBS_SIZE)))
     runtime_torch.reset()
-    np.testing.assert_allclose(runtime_torch.act(np.array([10000.0, 0, 0, 0, 0, 0, 10.0, 0, 0, 0, 0, 0, 0.5]),
-                                                 np.array([0.0, 0.0, 10.0]), 0.04),
-                               action_to_command(a), atol=1e-6)  # the integral trims start at zero
+    # The level measurement and goal scale to zeros, with the measured surfaces as the last action.
+    np.testing.assert_allclose(runtime_torch.act(LEVEL, GOAL, 0.04), action_to_command(a),
+                               atol=1e-6)  # the trims start at zero
 
 
 @pytest.mark.parametrize("backend", ["onnx", "torch"])
 def test_a_nan_measurement_is_a_clear_error_not_a_command(policy_file, backend):
-    path, _ = policy_file
+    path = policy_file
     runtime = PolicyRuntime(path, backend=backend)
     measurement = np.array([10000.0, 0, 0, 0, 0, 0, 10.0, 0, 0, 0, 0, 0, 0.5])
     runtime.act(measurement, np.array([0.0, 0.0, 10.0]), 0.04)
@@ -114,104 +115,66 @@ def test_a_nan_measurement_is_a_clear_error_not_a_command(policy_file, backend):
     runtime.backend = "torch"
     with pytest.raises(ActionError, match="not finite"):
         runtime.act(measurement, np.array([0.0, 0.0, 10.0]), 0.04)
-    assert runtime._last_action is None and runtime._trim.trim_deg == [0.0, 0.0]  # reset: the next call starts afresh
+    stack = runtime.stack  # reset: the next call starts afresh
+    assert stack.last_action is None and stack.surface_trim.trim_deg == [0.0, 0.0] == stack.goal_trim.offset_rad
 
 
-def test_the_runtimes_goal_trim_is_goal_trim_around_the_policy(tmp_path):
-    """A policy file with ``goal_trim_s`` flies as ``GoalTrim`` around the same policy without it."""
-    c = TrainConfig(seed=3)
-    c.env.num_envs, c.buffer.capacity, c.log.progress = 1, 10, False
-    trainer = Trainer(c, tmp_path / "run")
-    with_goal_trim, without = tmp_path / "with.pt", tmp_path / "without.pt"
-    trainer.save_policy(with_goal_trim, {"return_norm": 0.0})
-    c.env.goal_trim_s = 0.0
-    trainer.save_policy(without, {"return_norm": 0.0})
-    runtime = PolicyRuntime(with_goal_trim, backend="torch")
-    wrapped = GoalTrim(PolicyRuntime(without, backend="torch"), TrainConfig().env.goal_trim_s)
-    assert runtime.meta["goal_trim_s"] == 20.0 and load_policy(without)[1]["goal_trim_s"] == 0.0
-    rng = np.random.default_rng(0)
-    base = np.array([5000.0, 0, 0, 0, 0, 0, 10.0, 0, 0, 0, 0, 0, 0.5])
-    goal = np.array([0.004, -0.003, 10.0])  # a fraction of a degree off: the goal trim integrates
-    for _ in range(30):
-        measurement = base + rng.normal(size=13) * 1e-3
-        np.testing.assert_array_equal(runtime.act(measurement, goal, 0.04), wrapped.update(0.04, measurement, goal))
-    assert np.abs(wrapped.offset_deg).min() > 0.0
-    with pytest.raises(ValueError, match="control interval"):
-        runtime.act(base, goal)
-
-
-def test_set_goal_trim_rewrites_only_that_setting(policy_file, tmp_path):
-    path, _ = policy_file
-    copy = tmp_path / "policy.pt"
-    copy.write_bytes(path.read_bytes())
-    set_goal_trim(copy, 8.0)
-    before, after = checked_load(path), checked_load(copy)
-    assert load_policy(copy)[1]["goal_trim_s"] == 8.0
-    assert {k for k in before if k != "actor" and before[k] != after[k]} == {"goal_trim_s"}
-    digest = policy_digest(copy)
-    with pytest.raises(ValueError, match="goal trim time constant"):
-        set_goal_trim(copy, 0.01)
-    assert policy_digest(copy) == digest  # a refused setting leaves the file as it was
-
-
-def test_set_integral_trim_changes_only_the_trim_gains_of_a_policy_trained_with_hidden_trims(policy_file, tmp_path):
-    path, _ = policy_file
-    copy = tmp_path / "policy.pt"
-    copy.write_bytes(path.read_bytes())
-    # The trainer writes the flight trim gains (env.flight_integral_trim, 2 by default), not training's 0.5.
-    assert load_policy(path)[1]["integral_trim"] == 2.0 and not load_policy(path)[1]["observe_trims"]
-    set_integral_trim(copy, 1.0)
-    before, after = checked_load(path), checked_load(copy)
-    assert {k for k in before if k != "actor" and before[k] != after[k]} == {"integral_trim"}
-    assert PolicyRuntime(copy, backend="torch")._trim.fraction == 1.0
-    digest = policy_digest(copy)
-    for bad in (0.0, -1.0, float("nan"), 2.5):
-        with pytest.raises(ValueError, match="integral_trim"):
-            set_integral_trim(copy, bad)
-    untrimmed = tmp_path / "untrimmed.pt"
-    atomic_save({**before, "integral_trim": 0.0}, untrimmed)
-    with pytest.raises(ValueError, match="hidden integral trims"):
-        set_integral_trim(untrimmed, 1.0)
-    assert policy_digest(copy) == digest  # a refused setting leaves the file as it was
-
-
-def test_the_trainer_writes_the_flight_trim_and_refuses_one_its_policy_cannot_fly(tmp_path):
-    c = TrainConfig(seed=1)
-    c.env.num_envs, c.buffer.capacity, c.log.progress = 1, 10, False
-    c.env.flight_integral_trim = 1.5
-    trainer = Trainer(c, tmp_path / "run")
-    assert trainer.task_config.integral_trim == 0.5 == trainer.eval_task_config.integral_trim  # training keeps its own
-    trainer.save_policy(tmp_path / "policy.pt", {"return_norm": 0.0})
-    assert load_policy(tmp_path / "policy.pt")[1]["integral_trim"] == 1.5 == c.env.flown_integral_trim
-    c.env.flight_integral_trim = 0.0  # 0: the training gains in flight too
-    Trainer(c, tmp_path / "run0").save_policy(tmp_path / "policy0.pt", {"return_norm": 0.0})
-    assert load_policy(tmp_path / "policy0.pt")[1]["integral_trim"] == 0.5 == c.env.flown_integral_trim
-    refused = (({"integral_trim": 0.0}, "hidden integral trims"), ({"observe_trims": True}, "hidden integral trims"),
-               ({"flight_integral_trim": 2.5}, r"\[0, 2\]"), ({"flight_integral_trim": float("nan")}, "must be > 0"))
-    for i, (settings, problem) in enumerate(refused):
-        bad = TrainConfig.from_dict(c.to_dict())
-        bad.env.flight_integral_trim = 2.0
-        for key, value in settings.items():
-            setattr(bad.env, key, value)
-        with pytest.raises(ValueError, match="env.flight_integral_trim") as err:
-            Trainer(bad, tmp_path / f"bad{i}")
-        assert re.search(problem, str(err.value)), str(err.value)
-    assert TrainConfig.preset("paper").env.flight_integral_trim == 0.0
-
-
-@pytest.mark.parametrize(("settings", "problem"), [({"integral_trim": 0.5, "observe_trims": True, "rudder_trim_s": 4.0},
-                                                     "room for two trims"),
-                                                    ({"integral_trim": 0.5, "observe_trims": False,
-                                                      "rudder_trim_s": 0.1}, "rudder_trim_s must be 0"),
-                                                    ({"goal_trim_s": 0.1}, "goal trim time constant")])
-def test_a_policy_file_with_trim_settings_that_cannot_go_together_is_refused(policy_file, tmp_path, settings, problem):
-    path, _ = policy_file
+@pytest.mark.parametrize("version", [V0, V1], ids=lambda v: v.env_id)
+def test_the_trainer_writes_its_task_version_and_flight_stack_and_the_runtime_flies_it(version, tmp_path,
+                                                                                       untrained_policy):
+    path = untrained_policy(tmp_path / "policy.pt", seed=3, task=version.env_id)
     data = checked_load(path)
-    data.update(settings)
-    bad = tmp_path / "bad.pt"
-    atomic_save(data, bad)
-    with pytest.raises(PolicyFileError, match=problem):
+    assert data["task"] == version.env_id and data["stack"] == version.flight_stack.to_dict()
+    assert not {"window", "integral_trim", "goal_trim_s", "observe_trims"} & set(data)  # the flat keys are gone
+    runtime = PolicyRuntime(path, backend="torch")
+    assert runtime.meta["stack"] == runtime.stack.settings == version.flight_stack and runtime.window == 8
+    assert (runtime.stack.goal_trim is None) == (version.flight_stack.goal_trim_time_constant_s == 0.0)
+    assert (runtime.stack.surface_trim is None) == (version.flight_stack.surface_trim_gain == 0.0)
+    if runtime.stack.needs_interval:
+        with pytest.raises(ValueError, match="control interval dt_s"):
+            runtime.act(LEVEL, GOAL)
+    else:
+        assert runtime.act(LEVEL, GOAL).shape == (4,)  # the network alone needs no interval
+
+
+def test_the_shipped_policys_flat_settings_still_load(policy_file, tmp_path):
+    """Policy files written before the ``stack`` entry (the shipped one is such a file) record their
+    stages as flat settings; those the stack has load as its settings."""
+    flat = {"window": 8, "integral_trim": 2.0, "goal_trim_s": 20.0, "error_integral_decay": 0.0,
+            "observe_trims": False, "trims_in_surfaces": False, "rudder_trim_s": 0.0}
+    old = _with(policy_file, tmp_path, drop=("stack", "task"), **flat)
+    _, meta = load_policy(old)
+    assert meta["stack"] == StackSettings(8, 20.0, 2.0)
+    paper = _with(policy_file, tmp_path, "paper.pt", drop=("stack", "task"), window=4)  # no trims: the network alone
+    assert load_policy(paper)[1]["stack"] == StackSettings(4, 0.0, 0.0)
+    shown = _with(policy_file, tmp_path, "shown.pt", drop=("stack", "task"), observe_trims=True, integral_trim=0.0)
+    assert load_policy(shown)[1]["stack"] == StackSettings()  # shown trims, but none to show
+
+
+@pytest.mark.parametrize(("flat", "named"), [
+    ({"observe_trims": True, "integral_trim": 0.5}, "observe_trims"),
+    ({"observe_trims": False, "integral_trim": 0.5}, "trims_in_surfaces"),  # left in the surfaces when not named
+    ({"observe_trims": False, "trims_in_surfaces": True, "integral_trim": 0.5}, "trims_in_surfaces"),
+    ({"error_integral_decay": 0.99}, "error_integral_decay"),
+    ({"integral_trim": 0.5, "observe_trims": False, "trims_in_surfaces": False, "rudder_trim_s": 2.0},
+     "rudder_trim_s"),
+    ({"goal_trim_s": 0.1}, "goal_trim_time_constant_s"),
+    ({"window": 0}, "window_steps"),
+])
+def test_an_old_policy_file_with_stages_this_version_does_not_have_is_refused_naming_them(policy_file, tmp_path,
+                                                                                          flat, named):
+    bad = _with(policy_file, tmp_path, drop=("stack", "task"), **flat)
+    with pytest.raises(PolicyFileError, match=named) as err:
         load_policy(bad)
+    assert str(bad) in str(err.value)
+
+
+@pytest.mark.parametrize(("stack", "named"), [({"window_steps": 8, "integral_trim": 0.5}, "integral_trim"),
+                                              ({"surface_trim_gain": 3.0}, "surface_trim_gain"),
+                                              ({"goal_trim_time_constant_s": 0.1}, "goal_trim_time_constant_s")])
+def test_a_policy_file_with_a_stack_this_version_cannot_fly_is_refused(policy_file, tmp_path, stack, named):
+    with pytest.raises(PolicyFileError, match=named):
+        load_policy(_with(policy_file, tmp_path, stack=stack))
 
 
 def test_a_stale_onnx_export_beside_a_rewritten_policy_is_not_used(policy_file, tmp_path):
@@ -219,7 +182,7 @@ def test_a_stale_onnx_export_beside_a_rewritten_policy_is_not_used(policy_file, 
     import shutil
 
     path = tmp_path / "best_policy.pt"
-    shutil.copyfile(policy_file[0], path)
+    shutil.copyfile(policy_file, path)
     window = np.random.default_rng(1).normal(size=(8, OBS_SIZE)).astype(np.float32)
     first = PolicyRuntime(path, backend="onnx").action(window)
     data = checked_load(path)
@@ -234,11 +197,16 @@ def test_a_stale_onnx_export_beside_a_rewritten_policy_is_not_used(policy_file, 
 def test_broken_policy_file_gives_a_clear_error(tmp_path):
     bad = tmp_path / "bad.pt"
     bad.write_bytes(b"garbage")
-    with pytest.raises(PolicyFileError, match="not a usable policy"):
+    with pytest.raises(PolicyFileError, match=f"^{re.escape(str(bad))} is damaged or not a file of this package"):
         load_policy(bad)
     torch.save({"actor": {}, "window": 8}, tmp_path / "incomplete.pt")
-    with pytest.raises(PolicyFileError):
+    with pytest.raises(PolicyFileError, match="no actor network"):
         load_policy(tmp_path / "incomplete.pt")
+    torch.save({"actor": {}, "network": {"lstm_hidden": 8, "mlp_hidden": 16}}, tmp_path / "empty.pt")
+    with pytest.raises(PolicyFileError, match="not a usable policy file"):
+        load_policy(tmp_path / "empty.pt")
+    with pytest.raises(PolicyFileError, match="no policy file at"):
+        load_policy(tmp_path / "absent.pt")
 
 
 def test_missing_shipped_controller_is_a_clear_error(monkeypatch, tmp_path):
@@ -260,7 +228,7 @@ def test_ship_policy_needs_the_runs_first_command_and_commit(policy_file, tmp_pa
 
     from training.provenance import SESSIONS_FILE
 
-    path, _ = policy_file
+    path = policy_file
     run = tmp_path / "run"
     run.mkdir()
     shutil.copyfile(path, run / "best_policy.pt")
@@ -281,45 +249,43 @@ def test_ship_policy_needs_the_runs_first_command_and_commit(policy_file, tmp_pa
     assert [p.stat().st_mtime_ns for p in sorted(Path(script).parents[1].glob("jsbsim_env/control/shipped/*"))] == shipped
 
 
-@pytest.mark.parametrize(("decay", "trim", "observe", "in_surfaces", "rudder_s"),
-                         [(0.0, 0.0, True, True, 0.0), (0.99, 0.0, True, True, 0.0), (0.0, 0.5, True, True, 0.0),
-                          (0.99, 0.5, True, True, 0.0), (0.99, 0.5, False, True, 0.0),
-                          (0.0, 0.5, False, False, 0.0), (0.0, 0.5, False, False, 2.0)])
-def test_runtime_builds_the_environments_observation(tmp_path, decay, trim, observe, in_surfaces, rudder_s):
-    """Flying from measurements (with its own last action, and error integrals and integral trim, seen
-    or hidden, in the surface positions or taken off them, where the policy has them) gives the same
-    commands as flying from the environment's observations."""
-    c = TrainConfig(seed=2)
-    c.env.num_envs, c.buffer.capacity, c.log.progress = 1, 10, False
-    c.env.error_integral_decay, c.env.integral_trim, c.env.observe_trims = decay, trim, observe
-    c.env.trims_in_surfaces, c.env.rudder_trim_s = in_surfaces, rudder_s
-    c.env.goal_trim_s = 0.0  # flight-time only: the environment's goals are not moved
-    c.env.flight_integral_trim = 0.0  # flight-time only: the policy flies with the environment's trim gains
-    path = tmp_path / "policy.pt"
-    Trainer(c, tmp_path / "run").save_policy(path, {"return_norm": 0.0})
-    from_env, from_measurement = PolicyRuntime(path, backend="torch"), PolicyRuntime(path, backend="torch")
-    task = AttitudeTask(TaskConfig(error_integral_decay=decay, integral_trim=trim, observe_trims=observe,
-                                   trims_in_surfaces=in_surfaces, rudder_trim_s=rudder_s))
-    assert from_env.observation_size == task.config.observation_size
-    obs, _ = task.reset(4)
-    trims_seen = []
+@pytest.mark.parametrize(("task", "stack"), [(TaskConfig(), StackSettings()),
+                                             (dataclasses.replace(V1.task, external_throttle=0.0),
+                                              StackSettings(8, 0.0, V1.task.surface_trim_gain))],
+                         ids=["network alone", "surface trim"])
+def test_the_runtime_flying_from_measurements_sees_the_tasks_observations(policy_file, tmp_path, task, stack):
+    """The task and the runtime run the same stages: a policy flown by ``PolicyRuntime.act`` from
+    the task's measurements and goals is given the observations the task computes (with the task's
+    surface trims taken off the observed surfaces, where it has them), in the window training's
+    ``CatFrames`` keeps, and its commands, trims included, are those the task flies."""
+    path = _with(policy_file, tmp_path, stack=stack.to_dict())
+    runtime = PolicyRuntime(path, backend="torch")
+    windows, actions = [], []
+    network = runtime.action
+
+    def recorded(window):
+        windows.append(np.array(window))
+        actions.append(network(window))
+        return actions[-1]
+
+    runtime.action = recorded
+    env = AttitudeTask(task)
+    obs, _ = env.reset(4)
+    seen = [obs]
     for _ in range(40):
-        a_env = np.clip(from_env.act_scaled(obs).astype(np.float64), -1, 1)
-        command_env = action_to_command(a_env)
-        if trim > 0.0:  # the environment adds its trims (those it shows in the observation, where it does)
-            trims_seen.append(np.array(task.batch._trims[0].trim_deg))
-            if observe:
-                np.testing.assert_allclose(obs[OBS_SIZE - 3:OBS_SIZE - 1] * TRIM_SCALE_DEG, trims_seen[-1], atol=1e-4)
-            trimmed = slice(9, 9 + len(trims_seen[-1]))  # aileron, elevator, and rudder where trimmed
-            surfaces_rad = obs[trimmed] * OBS_SCALE[trimmed] + OBS_OFFSET[trimmed]
-            measured_rad = task.batch.measurements()[0, trimmed]
-            np.testing.assert_allclose(surfaces_rad, measured_rad - (0.0 if in_surfaces else np.radians(trims_seen[-1])),
-                                       atol=1e-5)
-            command_env[:len(trims_seen[-1])] += trims_seen[-1]
-        dt_s = task.core.setup.control_interval_s
-        command = from_measurement.act(task.batch.measurements()[0], task.batch.goals[0], dt_s)
-        np.testing.assert_allclose(command_env, command, atol=1e-4)
-        obs, _, terminated, truncated, _ = task.step(a_env)
+        b = env.batch
+        command = runtime.act(b.measurements()[0], b.goals[0], env.core.setup.control_interval_s)
+        expected = ([seen[0]] * 8 + seen)[-8:]  # a new episode's window is its first observation repeated
+        np.testing.assert_allclose(windows[-1], np.array(expected), atol=2e-6)
+        action = np.clip(actions[-1].astype(np.float64), -1, 1)
+        flown = action_to_command(action)
+        if stack.surface_trim_gain:
+            trims = b._trims[0].trim_deg
+            np.testing.assert_allclose(runtime.stack.surface_trim.trim_deg, trims, atol=1e-9)
+            flown[:2] += trims
+        np.testing.assert_allclose(command, flown, atol=1e-6)
+        obs, _, terminated, truncated, _ = env.step(action)
         assert not (terminated or truncated)
-    if trim > 0.0:
-        assert np.abs(trims_seen[-1]).min() > 0.01  # every trim moved, the rudder's too where there is one
+        seen.append(obs)
+    if stack.surface_trim_gain:
+        assert min(abs(t) for t in runtime.stack.surface_trim.trim_deg) > 0.01  # both trims moved

@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 import torch
 
+from jsbsim_env.control.policy import PolicyFileError, PolicyRuntime, load_policy
 from jsbsim_env.task.attitude import ActionError
 from training.checkpoint import CheckpointError, atomic_save, checked_load, load_checkpoint
-from jsbsim_env.control.policy import PolicyFileError, PolicyRuntime, load_policy
 from training.trainer import Trainer
 
 SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"

@@ -41,7 +41,9 @@ def test_report_without_a_policy_file_fails_clearly(tmp_path):
     done = subprocess.run([sys.executable, str(SCRIPTS / "report.py"), "--out", str(tmp_path), "--quick", "--policy",
                            str(tmp_path / "missing.pt"), "--no-progress"],
                           check=False, capture_output=True, text=True, timeout=300)
-    assert done.returncode != 0 and "does not exist" in done.stderr
+    (line,) = done.stderr.splitlines()  # one line naming the file, no traceback
+    assert done.returncode == 2 and line.startswith("report: ")
+    assert "policy file" in line and str(tmp_path / "missing.pt") in line
 
 
 def test_report_runs_only_the_experiments_and_controllers_named(tmp_path):

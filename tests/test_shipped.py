@@ -8,9 +8,10 @@ import math
 import numpy as np
 
 from jsbsim_env.control.pid import PIDAttitudeController
+from jsbsim_env.control.policy import PolicyRuntime, load_policy, onnx_source_digest, policy_digest, shipped_policy_path
+from jsbsim_env.control.stack import StackSettings
 from jsbsim_env.sim.core import CoreConfig, FlightCore
 from jsbsim_env.task.attitude import EAS_INDEX, AttitudeTaskBatch, TaskConfig
-from jsbsim_env.control.policy import PolicyRuntime, load_policy, onnx_source_digest, policy_digest, shipped_policy_path
 from training.evaluation.suite import EVAL_EPISODE_SEED, fly
 
 RANDOM_ACTIONS_RETURN = 0.13  # normalised return of uniformly random actions on these episodes
@@ -26,6 +27,18 @@ def test_shipped_record_names_command_seed_and_commit():
     assert record["evaluation"]["episodes"]["count"] >= 50
     assert onnx_source_digest(path.with_suffix(".onnx")) == policy_digest(path)  # the export of this very file
     assert len(record["aircraft_model"]) == 64  # the fingerprint of the aircraft model it was trained on
+
+
+def test_shipped_policy_loads_with_its_control_stack():
+    """The shipped file (written before the ``stack`` entry, with flat settings) loads with the stack
+    it flies with, the task version SolarUAVAttitude-v1's."""
+    from jsbsim_env.task.versions import V1
+
+    path = shipped_policy_path()
+    _, meta = load_policy(path)
+    assert meta["stack"] == StackSettings(8, 20.0, 2.0) == V1.flight_stack
+    runtime = PolicyRuntime()
+    assert runtime.stack.settings == meta["stack"] and runtime.window == 8 and runtime.observation_size == 20
 
 
 def test_shipped_policy_flies_a_disturbed_episode_without_early_end():

@@ -21,6 +21,7 @@ from training.evaluation.sweep import (
     run_local,
 )
 
+
 def test_axes_parse_and_bad_ones_are_refused():
     assert parse_axis("delay_ms=0, 100,300") == ("delay_ms", [0.0, 100.0, 300.0])
     with pytest.raises(ValueError, match="unknown axis 'delay'"):

@@ -9,7 +9,8 @@ import pytest
 from jsbsim_env.task.attitude import AttitudeTaskBatch, TaskConfig
 
 
-@pytest.mark.parametrize(("field", "value"), [("integral_trim", -0.1), ("integral_trim", 2.5), ("external_throttle", 1.5),
+@pytest.mark.parametrize(("field", "value"), [("surface_trim_gain", -0.1), ("surface_trim_gain", 2.5),
+                                              ("surface_trim_gain", float("nan")), ("external_throttle", 1.5),
                                               ("sideslip_weight", -1.0), ("sideslip_weight", 11.0),
                                               ("roll_weight", -0.5), ("roll_weight", float("nan")),
                                               ("pitch_weight", 10.5), ("pitch_weight", float("nan"))])

@@ -13,47 +13,19 @@ import torch
 
 from jsbsim_env.sim.core import CoreConfig
 from jsbsim_env.task.attitude import TaskConfig
+from jsbsim_env.task.versions import LATEST, V1
 from training.checkpoint import CheckpointError, atomic_save, checked_load, load_checkpoint
 from training.config import TrainConfig
-from training.trainer import RunLockedError, Trainer, lr_factor
+from training.trainer import RunLockedError, Trainer
 
 SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
-
-
-def tiny_config(total_frames: int = 192) -> TrainConfig:
-    c = TrainConfig(seed=3)
-    c.env.num_envs = 4
-    c.collector.total_frames = total_frames
-    c.collector.frames_per_batch = 32
-    c.collector.init_random_frames = 64
-    c.buffer.capacity = 5000
-    c.buffer.batch_size = 16
-    c.network.lstm_hidden = 8
-    c.network.mlp_hidden = 16
-    c.log.log_every_frames = 32
-    c.log.eval_every_frames = 96
-    c.log.eval_episodes = 2
-    c.log.eval_max_steps = 10
-    c.log.checkpoint_every_frames = 96
-    c.log.progress = False
-    return c
-
-
-def _script(name: str):
-    """A script under scripts/ imported as a module, to call its functions."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location(name, SCRIPTS / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def _rows(run_dir: Path) -> list[dict]:
     return list(csv.DictReader((run_dir / "progress.csv").open()))
 
 
-def test_tiny_run_writes_logs_checkpoint_and_policy(tmp_path):
+def test_tiny_run_writes_logs_checkpoint_and_policy(tmp_path, tiny_config):
     run = tmp_path / "run"
     Trainer(tiny_config(), run).train()
     assert json.loads((run / "config.json").read_text())["network"]["lstm_hidden"] == 8
@@ -66,10 +38,11 @@ def test_tiny_run_writes_logs_checkpoint_and_policy(tmp_path):
     data = load_checkpoint(run / "checkpoint.pt")
     assert data["counters"]["frames"] == 192 and len(data["buffer"]["data"]) == 192
     policy = checked_load(run / "best_policy.pt")
-    assert policy["window"] == 8 and "actor" in policy
+    assert "actor" in policy and policy["task"] == LATEST == "SolarUAVAttitude-v1"
+    assert policy["stack"] == V1.flight_stack.to_dict() and policy["stack"]["window_steps"] == 8
 
 
-def test_resume_continues_counting_with_the_buffer(tmp_path):
+def test_resume_continues_counting_with_the_buffer(tmp_path, tiny_config):
     run = tmp_path / "run"
     Trainer(tiny_config(96), run).train()
     first = load_checkpoint(run / "checkpoint.pt")
@@ -83,13 +56,21 @@ def test_resume_continues_counting_with_the_buffer(tmp_path):
     assert load_checkpoint(run / "checkpoint.pt")["counters"]["updates"] == (192 - 64) * tiny_config().optim.updates_per_step
 
 
-def test_corrupt_or_mismatched_checkpoints_give_clear_errors(tmp_path):
+def test_corrupt_or_mismatched_checkpoints_give_clear_errors(tmp_path, tiny_config):
     run = tmp_path / "run"
     Trainer(tiny_config(96), run).train()
     other = tiny_config(96)
     other.network.lstm_hidden = 16
     with pytest.raises(CheckpointError, match="other settings"):
         Trainer(other, run, resume=True)
+    # A checkpoint of another version of the package (a setting this one does not have) is refused naming it.
+    saved = checked_load(run / "checkpoint.pt")
+    older = tmp_path / "older"
+    older.mkdir()
+    saved["config"]["env"]["integral_trim"] = 0.5
+    atomic_save(saved, older / "checkpoint.pt")
+    with pytest.raises(CheckpointError, match="unreadable settings.*env.integral_trim"):
+        Trainer(tiny_config(96), older, resume=True)
     (run / "checkpoint.pt").write_bytes(b"not a checkpoint")
     with pytest.raises(CheckpointError, match="damaged"):
         Trainer(tiny_config(96), run, resume=True)
@@ -105,42 +86,46 @@ def test_config_round_trip_and_command_line():
 
     parser = argparse.ArgumentParser()
     TrainConfig.add_arguments(parser)
-    ns = parser.parse_args(["--seed", "7", "--optim.lr", "0.001", "--env.disturbances", "false"])
+    ns = parser.parse_args(["--seed", "7", "--optim.lr", "0.001", "--env.disturbances", "false",
+                            "--env.task", "SolarUAVAttitude-v0"])
     c = TrainConfig.from_namespace(ns)
-    assert c.seed == 7 and c.optim.lr == 0.001 and c.env.disturbances is False
+    assert c.seed == 7 and c.optim.lr == 0.001 and c.env.disturbances is False and c.env.task == "SolarUAVAttitude-v0"
     assert c.buffer.batch_size == 256 and c.caps.kappa_spatial == 0.5  # untouched settings keep their defaults
+    assert TrainConfig().env.task == LATEST
     assert TrainConfig.from_dict(json.loads(c.to_json())) == c
-    with pytest.raises(ValueError, match="unknown settings"):
-        TrainConfig.from_dict({"optim": {"learning_rate": 1}})
     # A list setting takes one value per entry, and a config's list is its own.
-    ns = parser.parse_args(["--caps.action_weights", "1", "1", "0.5", "1", "--optim.recurrent_lr", "3e-5"])
+    ns = parser.parse_args(["--caps.action_weights", "1", "1", "0.5", "1"])
     c = TrainConfig.from_namespace(ns)
-    assert c.caps.action_weights == [1.0, 1.0, 0.5, 1.0] and c.optim.recurrent_lr == 3e-5
+    assert c.caps.action_weights == [1.0, 1.0, 0.5, 1.0]
     assert TrainConfig.from_dict(json.loads(c.to_json())) == c
     assert TrainConfig().caps.action_weights == [1.0, 1.0, 1.0, 1.0] != c.caps.action_weights
     with pytest.raises(SystemExit):
         parser.parse_args(["--caps.action_weights", "0.5", "1"])
+    with pytest.raises(ValueError, match="SolarUAVAttitude-v7"):
+        TrainConfig.from_namespace(parser.parse_args(["--env.task", "SolarUAVAttitude-v7"]))
 
 
-def test_config_of_an_older_run_keeps_the_settings_it_trained_with():
-    from training.config import LEGACY_VALUES
+@pytest.mark.parametrize(("data", "named"), [
+    ({"env": {"integral_trim": 0.5}}, "env.integral_trim"),
+    ({"env": {"task": "SolarUAVAttitude-v1", "delay_ms": [80.0, 120.0]}}, "env.delay_ms"),
+    ({"optim": {"learning_rate": 1e-3}}, "optim.learning_rate"),
+    ({"optim": {"recurrent_lr": 3e-5, "lr_end_fraction": 0.1}}, "optim.lr_end_fraction, optim.recurrent_lr"),
+    ({"log": {"eval_max_steps": 10}}, "log.eval_max_steps"),
+    ({"preset": "paper"}, "preset"),
+])
+def test_a_configuration_from_another_version_is_refused_naming_its_settings(data, named):
+    """Settings this version does not have (removed options, an older run's flat task settings) are
+    refused by name: only the version the run was made with trains as it did."""
+    with pytest.raises(ValueError, match="do not exist in this version of the package") as err:
+        TrainConfig.from_dict(data)
+    assert named in str(err.value) and "configuration is from another version" in str(err.value)
 
-    # Every legacy entry names a setting that exists, with a value of the setting's type.
-    for key, value in LEGACY_VALUES.items():
-        group, name = key.split(".")
-        assert isinstance(value, type(getattr(getattr(TrainConfig(), group), name))), key
-    # A run saved before delay_ms, pitch_weight and the CAPS action weights existed resumes with
-    # the values it trained with, not the present defaults; what it saved stays its own.
-    data = TrainConfig().to_dict()
-    for name in ("delay_ms", "pitch_weight", "roll_weight"):
-        del data["env"][name]
-    del data["caps"]["action_weights"]
-    data["env"]["sideslip_weight"] = 6.0
-    c = TrainConfig.from_dict(data)
-    assert c.env.delay_ms == [80.0, 120.0] and c.env.pitch_weight == 1.0 and c.env.roll_weight == 1.0
-    assert c.caps.action_weights == [1.0, 1.0, 1.0, 1.0] and c.env.sideslip_weight == 6.0
-    c.caps.action_weights[0] = 0.5  # a config's list is its own, not the table's
-    assert LEGACY_VALUES["caps.action_weights"] == [1.0, 1.0, 1.0, 1.0]
+
+def test_a_task_version_the_package_does_not_have_is_refused_naming_it():
+    with pytest.raises(ValueError, match="'SolarUAVAttitude-v7'") as err:
+        TrainConfig.from_dict({"env": {"task": "SolarUAVAttitude-v7"}})
+    assert "SolarUAVAttitude-v0" in str(err.value) and "SolarUAVAttitude-v1" in str(err.value)  # the known ones
+    assert TrainConfig.from_dict({"env": {"task": "SolarUAVAttitude-v0"}}).env.task == "SolarUAVAttitude-v0"
 
 
 def test_training_benchmark_prints_only_its_figures_on_stdout():
@@ -155,19 +140,17 @@ def test_training_benchmark_prints_only_its_figures_on_stdout():
 def test_train_script_help_lists_the_settings():
     done = subprocess.run([sys.executable, str(SCRIPTS / "train_torchrl.py"), "--help"], capture_output=True,
                           text=True, check=False, timeout=120)
-    assert done.returncode == 0
-    for option in ("--resume", "--seed", "--optim.lr", "--caps.kappa_spatial", "--collector.total_frames"):
+    assert done.returncode == 0, done.stderr
+    for option in ("--resume", "--seed", "--optim.lr", "--caps.kappa_spatial", "--collector.total_frames",
+                   "--env.task"):
         assert option in done.stdout
+    for removed in ("--preset", "--env.integral_trim", "--env.window", "--log.eval_max_steps"):
+        assert removed not in done.stdout
 
 
-def test_train_script_records_each_session_for_the_shipped_record(tmp_path):
-    script = _script("train_torchrl")
-    tiny = ["--seed", "3", "--env.num_envs", "4", "--collector.frames_per_batch", "32",
-            "--collector.init_random_frames", "64", "--buffer.capacity", "5000", "--buffer.batch_size", "16",
-            "--network.lstm_hidden", "8", "--network.mlp_hidden", "16", "--log.eval_every_frames", "96",
-            "--log.eval_episodes", "2", "--log.eval_max_steps", "10", "--log.checkpoint_every_frames", "96",
-            "--log.log_every_frames", "32", "--log.progress", "false", "--log.run_root", str(tmp_path),
-            "--run-name", "run"]
+def test_train_script_records_each_session_for_the_shipped_record(tmp_path, load_script, tiny_args):
+    script = load_script("train_torchrl")
+    tiny = [*tiny_args(None), "--log.run_root", str(tmp_path), "--run-name", "run"]
     assert script.main([*tiny, "--collector.total_frames", "96"]) == 0
     run = tmp_path / "run"
     assert script.main(["--resume", str(run), "--collector.total_frames", "128"]) == 0
@@ -191,7 +174,7 @@ def test_train_script_records_each_session_for_the_shipped_record(tmp_path):
     assert training_wall_clock(run, 10**9)["to_policy_s"] is None
 
 
-def test_a_second_trainer_on_a_live_run_is_refused(tmp_path):
+def test_a_second_trainer_on_a_live_run_is_refused(tmp_path, tiny_config):
     run = tmp_path / "run"
     first = Trainer(tiny_config(96), run)
     with pytest.raises(RunLockedError, match="another process"):
@@ -202,10 +185,10 @@ def test_a_second_trainer_on_a_live_run_is_refused(tmp_path):
     gc.collect()
 
 
-def test_training_summary_finds_the_steps_to_90_percent_of_the_final_return(tmp_path):
+def test_training_summary_finds_the_steps_to_90_percent_of_the_final_return(tmp_path, load_script):
     from training.trainer import CSV_FIELDS
 
-    script = _script("plot_training")
+    script = load_script("plot_training")
     evals = {10_000: 0.4, 20_000: 0.5, 30_000: 0.8, 40_000: 0.9, 50_000: 1.0, 60_000: 1.0}
     with (tmp_path / "progress.csv").open("w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=CSV_FIELDS)
@@ -223,71 +206,19 @@ def test_training_summary_finds_the_steps_to_90_percent_of_the_final_return(tmp_
     assert summary["best_eval_return"] == 1.0 and summary["best_eval_frames"] == 50_000
 
 
-def test_a_run_trains_in_its_turbulence_and_delay_and_evaluates_in_specs(tmp_path):
+def test_a_run_trains_in_its_task_versions_disturbances_and_evaluates_in_the_papers(tmp_path, tiny_config):
     c = tiny_config()
-    c.env.turbulence_sigma_mps, c.env.delay_ms = 1.0, [40.0, 100.0]
-    trainer = Trainer(c, tmp_path / "run")
-    assert trainer.task_config.core.turbulence_sigma_mps == 1.0 and trainer.task_config.core.delay_s == (0.04, 0.1)
+    trainer = Trainer(c, tmp_path / "run")  # the latest version: SolarUAVAttitude-v1
+    assert trainer.task_config == V1.task and trainer.task_config.core.delay_s == (0.04, 0.12)
     assert trainer.eval_task_config.core == CoreConfig()
-    assert trainer.eval_task_config.integral_trim == trainer.task_config.integral_trim
-    c.env.delay_ms = [40.0]
-    with pytest.raises(ValueError, match="delay_ms must be two numbers"):
-        Trainer(c, tmp_path / "bad")
+    assert trainer.eval_task_config.surface_trim_gain == trainer.task_config.surface_trim_gain == 0.5
+    assert trainer.window == 8 and trainer.env.base_env.batch.config == V1.task
+    c.env.task = "SolarUAVAttitude-v0"  # the paper's task, trained and evaluated in the paper's disturbances
+    paper = Trainer(c, tmp_path / "paper")
+    assert paper.task_config == paper.eval_task_config == TaskConfig()
     c.env.disturbances = False  # the ideal setting stays ideal, in training and in its evaluation
-    c.env.delay_ms = [40.0, 100.0]
     ideal = Trainer(c, tmp_path / "ideal")
     assert ideal.task_config.core == ideal.eval_task_config.core == CoreConfig.ideal()
-
-
-def test_the_paper_preset_is_spec_section_3():
-    paper = TrainConfig.preset("paper")
-    assert not paper.optim.auto_alpha and paper.optim.alpha == 0.2 and paper.optim.updates_per_step == 1.0
-    assert paper.buffer.relabel_fraction == 0.0 and paper.env.error_integral_decay == 0.0
-    assert paper.env.integral_trim == 0.0 and paper.env.sideslip_weight == 1.0 and paper.env.rudder_trim_s == 0.0
-    assert paper.env.roll_weight == 1.0 and paper.env.pitch_weight == 1.0 and paper.caps.action_weights == [1.0] * 4
-    assert paper.env.external_throttle == 0.0 and paper.env.penalty_tail == 0.0 and paper.env.trims_in_surfaces
-    assert (paper.optim.lr, paper.optim.gamma, paper.optim.tau, paper.buffer.batch_size) == (3e-4, 0.99, 0.005, 256)
-    assert (paper.caps.kappa_spatial, paper.caps.kappa_temporal, paper.network.lstm_hidden) == (2.0, 1.0, 64)
-    assert paper.env.delay_ms == [80.0, 120.0] and paper.env.turbulence_sigma_mps == 0.5
-    assert paper.optim.lr_end_fraction == 1.0
-    with pytest.raises(ValueError, match="unknown preset"):
-        TrainConfig.preset("fast")
-
-
-def test_a_run_with_state_critics_and_error_integrals_trains_and_resumes(tmp_path):
-    """The asymmetric critics read the stored critics' state; the actor still reads its window."""
-    c = tiny_config(128)
-    c.network.critic = "state"
-    c.env.error_integral_decay = 0.99
-    run = tmp_path / "run"
-    Trainer(c, run).train()
-    data = load_checkpoint(run / "checkpoint.pt")
-    stored = data["buffer"]["data"]
-    assert stored["state"].shape[-1] == TaskConfig(error_integral_decay=0.99).critic_state_size
-    assert stored["observation"].shape[-1] == TaskConfig(error_integral_decay=0.99).observation_size
-    c.collector.total_frames = 192
-    assert int(Trainer(c, run, resume=True).train()["frames"]) == 192
-
-
-def test_the_learning_rate_schedule_falls_linearly_and_resumes_where_it_stood(tmp_path):
-    """lr_end_fraction: constant until the first update, linear to the fraction at total_frames,
-    and a function of the frame count, so a resumed run's rates are the uninterrupted run's."""
-    assert lr_factor(64, 64, 192, 0.1) == 1.0 and lr_factor(10_000, 64, 192, 1.0) == 1.0
-    assert lr_factor(128, 64, 192, 0.1) == pytest.approx(0.55)
-    assert lr_factor(192, 64, 192, 0.1) == pytest.approx(0.1) == lr_factor(400, 64, 192, 0.1)
-    c = tiny_config(128)
-    c.optim.lr_end_fraction = 0.2
-    run = tmp_path / "run"
-    Trainer(c, run).train()
-    c.collector.total_frames = 192
-    resumed = Trainer(c, run, resume=True)
-    # The first run ended its own schedule at 0.2 of the rates; resumed to 192 frames the schedule
-    # stretches and ends at 0.2 again, of the configured rates (of the loaded ones it would be 0.04).
-    resumed.train()
-    network_lrs = [g["lr"] for g in resumed.sac.optimizer.param_groups[:-1]]
-    assert network_lrs == [pytest.approx(c.optim.lr * 0.2)] * len(network_lrs)
-    assert resumed.sac.optimizer.param_groups[-1]["lr"] == c.optim.lr  # the temperature's
-    for bad in (0.0, -0.5, 1.5, float("nan")):
-        c.optim.lr_end_fraction = bad
-        with pytest.raises(ValueError, match="lr_end_fraction"):
-            Trainer(c, tmp_path / "bad")
+    c.env.task = "SolarUAVAttitude-v7"
+    with pytest.raises(ValueError, match="SolarUAVAttitude-v7"):
+        Trainer(c, tmp_path / "unknown")

@@ -59,12 +59,20 @@ class StackSettings:
 
     @classmethod
     def from_dict(cls, data: dict) -> StackSettings:
+        """The settings as ``to_dict`` wrote them; a setting of the wrong kind or unknown is refused by name."""
         unknown = set(data) - set(cls.__dataclass_fields__)
         if unknown:
             raise ValueError(f"unknown control-stack settings {sorted(unknown)}")
-        return cls(window_steps=int(data.get("window_steps", 8)),
-                   goal_trim_time_constant_s=float(data.get("goal_trim_time_constant_s", 0.0)),
-                   surface_trim_gain=float(data.get("surface_trim_gain", 0.0)))
+        window = data.get("window_steps", 8)
+        if isinstance(window, bool) or not isinstance(window, int):
+            raise ValueError(f"window_steps must be a whole number, got {window!r}")
+        numbers = {}
+        for name in ("goal_trim_time_constant_s", "surface_trim_gain"):
+            value = data.get(name, 0.0)
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise ValueError(f"{name} must be a number, got {value!r}")
+            numbers[name] = float(value)
+        return cls(window_steps=window, **numbers)
 
 
 class ControlStack:

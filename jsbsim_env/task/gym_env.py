@@ -47,7 +47,7 @@ class SolarUAVAttitudeGymEnv(gym.Env):
         return self.task.step(np.asarray(action, dtype=np.float64))
 
 
-ENV_ID = "SolarUAVAttitude-v0"
+ENV_ID = "SolarUAVAttitude-v0"  # the paper's task; jsbsim_env.task.versions lists every version
 
 
 def register() -> None:

@@ -1,0 +1,58 @@
+"""The registered task versions (``jsbsim_env.task.versions``): what each trains on and flies with,
+their gymnasium registration, and a clear error for a version the package does not have."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import jsbsim_env
+from jsbsim_env.control.observation import OBS_SIZE
+from jsbsim_env.control.stack import StackSettings
+from jsbsim_env.sim.core import CoreConfig
+from jsbsim_env.task.attitude import TaskConfig
+from jsbsim_env.task.versions import LATEST, V0, V1, VERSIONS, TaskVersion, task_version
+
+
+def test_v0_is_the_papers_task_flown_by_the_network_alone():
+    assert V0.env_id == "SolarUAVAttitude-v0" and V0.task == TaskConfig() and V0.flight_stack == StackSettings()
+    paper = V0.task
+    assert paper.core == CoreConfig() and paper.core.delay_s == (0.08, 0.12) and paper.core.turbulence_sigma_mps == 0.5
+    assert (paper.surface_trim_gain, paper.external_throttle, paper.penalty_tail) == (0.0, 0.0, 0.0)
+    assert (paper.sideslip_weight, paper.roll_weight, paper.pitch_weight) == (1.0, 1.0, 1.0)
+
+
+def test_v1_is_the_shipped_controllers_task_and_flight_stack():
+    assert V1.env_id == "SolarUAVAttitude-v1" == LATEST
+    assert V1.flight_stack == StackSettings(window_steps=8, goal_trim_time_constant_s=20.0, surface_trim_gain=2.0)
+    task = V1.task
+    assert task.surface_trim_gain == 0.5 and task.external_throttle == 0.3 and task.penalty_tail == 0.1
+    assert (task.sideslip_weight, task.roll_weight, task.pitch_weight) == (6.0, 2.0, 2.0)
+    assert task.core.delay_s == (0.04, 0.12)
+    # Its other disturbances are the paper's.
+    assert {**task.core.__dict__, "delay_s": None} == {**CoreConfig().__dict__, "delay_s": None}
+
+
+def test_versions_are_listed_by_id_and_an_unknown_one_is_refused_naming_it():
+    assert list(VERSIONS) == ["SolarUAVAttitude-v0", "SolarUAVAttitude-v1"]
+    assert all(isinstance(v, TaskVersion) and VERSIONS[v.env_id] is v for v in VERSIONS.values())
+    assert task_version("SolarUAVAttitude-v1") is V1 and task_version("SolarUAVAttitude-v0") is V0
+    with pytest.raises(ValueError, match="'SolarUAVAttitude-v9'") as err:
+        task_version("SolarUAVAttitude-v9")
+    assert "SolarUAVAttitude-v0" in str(err.value) and "SolarUAVAttitude-v1" in str(err.value)
+
+
+@pytest.mark.filterwarnings("ignore:.*is out of date:DeprecationWarning")
+@pytest.mark.parametrize("version", [V0, V1], ids=lambda v: v.env_id)
+def test_every_version_is_registered_with_gymnasium_on_import(version):
+    assert version.env_id in gym.registry and jsbsim_env.ENV_ID in gym.registry
+    env = gym.make(version.env_id)
+    assert env.unwrapped.task.config == version.task
+    obs, _ = env.reset(seed=0)
+    assert obs.shape == (OBS_SIZE,) == env.observation_space.shape and obs.dtype == np.float32
+    assert env.action_space.shape == (4,)
+    obs, reward, terminated, truncated, info = env.step(np.zeros(4, np.float32))
+    assert obs.shape == (20,) and np.isfinite(reward) and not (terminated or truncated) and "penalty_roll" in info
+    jsbsim_env.task.gym_env.register()  # registering again changes nothing
+    assert gym.spec(version.env_id).kwargs["config"] == version.task
