@@ -245,7 +245,7 @@ def test_turbulence_and_delay_settings_are_checked_and_change_a_flight():
     with pytest.raises(ValueError, match="control_interval_s"):
         CoreConfig(control_interval_s=(0.0, 0.05))
     # The training settings' turbulence and delay do change a flight (the trainer's own evaluation
-    # flies SPEC's: tests/test_training.py).
+    # flies the paper's: tests/test_training.py).
     def policy(td):  # neutral surfaces and half throttle in both flights
         return td.set("action", torch.zeros(td.shape[0], 4))
 

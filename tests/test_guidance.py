@@ -103,7 +103,7 @@ def test_l1_captures_an_offset_leg():
     assert r["roll_cmd"][1] < 0.0, "turns left, towards the leg"
     assert settling_time_s(r["t"], r["xtrack"], 0.0, 5.0) < 120.0
     assert r["xtrack"].min() > -15.0, "overshoot below 15 % of the offset"
-    assert np.abs(r["roll_cmd"]).max() <= math.radians(5.0) + 1e-12, "roll demand inside the SPEC range"
+    assert np.abs(r["roll_cmd"]).max() <= math.radians(5.0) + 1e-12, "roll demand inside the paper's Table 2 range"
 
 
 def test_l1_corrects_a_heading_error():
