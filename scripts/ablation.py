@@ -29,16 +29,10 @@ from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
-import torch
 
-import aircraft
-from jsbsim_env.control.factory import make_controller
-from jsbsim_env.control.pid import PIDAttitudeController
-from jsbsim_env.control.policy import load_policy, policy_digest
-from jsbsim_env.missions import RouteConfig
-from training.evaluation.report import render_markdown, run_report
-from training.evaluation.suite import suite_episodes
-from training.provenance import training_wall_clock
+# Only numpy and training.runtime (no torch, no simulation) load before the arguments are parsed,
+# so that a mistyped option is refused at once; the flights' modules load where they are flown.
+from training.runtime import OutputFolderError, check_output_folder
 
 # Scorecard sections (named by the key each adds to the scorecard) and the report experiments
 # they are flown with; a cached scorecard that lacks a section gets only that section's flights.
@@ -73,6 +67,12 @@ def score(controller_factory, out_dir: Path, policy: Path | None, episodes: int,
     """Suite, routes and their figures into ``out_dir``, kept in ``out_dir/scorecard.json`` and
     reused while the scoring version, the controller (the policy file's digest, or the PID), the
     aircraft model, the route settings, the episode count and ``quick`` are the same."""
+    import aircraft
+    from jsbsim_env.control.policy import policy_digest
+    from jsbsim_env.missions import RouteConfig
+    from training.evaluation.report import render_markdown, run_report
+    from training.evaluation.suite import suite_episodes
+
     key = {"scoring": SCORING_VERSION, "controller": policy_digest(policy) if policy is not None else "PID",
            "episodes": episodes, "quick": quick, "aircraft_model": aircraft.model_fingerprint(), "route": asdict(RouteConfig())}
     key = json.loads(json.dumps(key))  # as it reads back from the file (tuples become lists)
@@ -112,6 +112,10 @@ def score(controller_factory, out_dir: Path, policy: Path | None, episodes: int,
 def run_scorecard(run_dir: Path, episodes: int, quick: bool = False) -> dict:
     """The scores of the run's best policy, flown with the control stack its file records, with the
     wall-clock the run took to reach it."""
+    from jsbsim_env.control.factory import make_controller
+    from jsbsim_env.control.policy import load_policy
+    from training.provenance import training_wall_clock
+
     policy = run_dir / "best_policy.pt"
     card = score(lambda: make_controller("policy", policy, backend="torch"), run_dir / "scorecard", policy, episodes,
                  quick)
@@ -257,7 +261,7 @@ def record_markdown(record: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("runs", type=Path, nargs="*",
@@ -271,23 +275,33 @@ def main() -> None:
                         help="print the table as Markdown; without run folders, docs/ablation.md: every candidate "
                              f"tried, from {RECORD.name}")
     parser.add_argument("--quick", action="store_true", help="short routes, for checks")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     if not args.runs:
         if not args.markdown or args.pid:
             parser.error("give run folders to score, or --markdown alone for the record of every candidate tried")
         print(record_markdown(json.loads(RECORD.read_text(encoding="utf-8"))), end="")
-        return
-    torch.set_num_threads(1)
+        return 0
     for run in args.runs:
         if not (run / "best_policy.pt").is_file():
             parser.error(f"{run} has no best_policy.pt")
+    try:  # every folder a scorecard goes to, before the first flight
+        for folder in [*(run / "scorecard" for run in args.runs), *([args.pid] if args.pid else [])]:
+            check_output_folder(folder)
+    except OutputFolderError as err:
+        parser.exit(2, f"ablation: {err}\n")
+    import torch
+
+    from jsbsim_env.control.pid import PIDAttitudeController
+
+    torch.set_num_threads(1)
     groups: dict[str, list[dict]] = {}
     if args.pid:
         groups["PID (reference)"] = [score(PIDAttitudeController, args.pid, None, args.episodes, args.quick)]
     for run in args.runs:
         groups.setdefault(candidate_name(run), []).append(run_scorecard(run, args.episodes, args.quick))
     print(markdown(groups) if args.markdown else json.dumps(groups, indent=1, default=float))
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

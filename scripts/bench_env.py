@@ -29,9 +29,10 @@ import time
 
 import numpy as np
 
+from jsbsim_env.control.observation import ACTION_OFFSET, ACTION_SCALE, command_to_action
 from jsbsim_env.sim.core import CoreConfig, FlightCore
 from jsbsim_env.sim.trim_table import TrimTable
-from jsbsim_env.task.attitude import ACTION_OFFSET, ACTION_SCALE, AttitudeTask, command_to_action
+from jsbsim_env.task.attitude import AttitudeTask
 
 # torch and TorchRL (SolarUAVAttitudeEnv) load in the functions that use them, after the arguments
 # are parsed.

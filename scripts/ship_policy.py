@@ -100,8 +100,7 @@ def main(argv: list[str] | None = None) -> int:
         "run_wall_clock_s": wall["whole_run_s"], "run_frames": wall["frames"],
         "training_evaluation": meta["evaluation"],
         "config": config,
-        # what the policy was trained on and flies with: the task version (None in a policy file
-        # written before it was recorded) and the control stack's settings
+        # what the policy was trained on and flies with: the task version and the control stack's settings
         "task": meta.get("task"),
         "stack": stack.to_dict(),
         "evaluation": results,

@@ -283,7 +283,7 @@ def test_without_trims_the_stack_observes_the_scaled_measurement_last_action_and
         rows.append(scale_row(m + last + GOAL))
         expected = ([rows[0]] * 4 + rows)[-4:]  # a new flight's window is its first observation repeated
         np.testing.assert_allclose(window, np.array(expected, dtype=np.float32), rtol=0, atol=0)
-        assert stack.command(action, None, m, GOAL) == action_list_to_command(action)
+        assert stack.command(action) == action_list_to_command(action)
         last = action
 
 
@@ -300,7 +300,7 @@ def test_a_surface_trim_is_taken_off_the_observed_surfaces_and_added_to_the_comm
         observed = window[-1] * OBS_SCALE + OBS_OFFSET
         np.testing.assert_allclose(observed[9:11], np.array(m[9:11]) - np.radians(reference.trim_deg), atol=1e-6)
         np.testing.assert_allclose(window[-1], np.array(scale_row(reference.remove_from(m + last + GOAL)), np.float32))
-        command = stack.command(action, DT_S, m, GOAL)
+        command = stack.command(action)
         np.testing.assert_allclose(command, reference.apply(action_list_to_command(action)), rtol=0, atol=0)
         np.testing.assert_allclose(command[:2], action_to_command(np.array(action))[:2] + reference.trim_deg, atol=1e-12)
         assert command[2:] == action_list_to_command(action)[2:]
@@ -315,7 +315,7 @@ def test_a_goal_trim_moves_the_goal_the_network_is_given():
         window = stack.observe(m, GOAL, DT_S)
         given = window[-1, -3:] * OBS_SCALE[-3:] + OBS_OFFSET[-3:]
         np.testing.assert_allclose(given, reference.goal(GOAL), atol=1e-6)
-        stack.command(action, DT_S, m, GOAL)
+        stack.command(action)
         reference.integrate(DT_S, m, GOAL)  # after the command: this step's error moves the next goal
         assert stack.goal_trim.offset_rad == reference.offset_rad
     assert reference.offset_rad[0] < -1e-4 and reference.offset_rad[1] < -1e-4  # roll and pitch above: goals lowered
@@ -327,14 +327,14 @@ def test_reset_starts_every_stage_afresh():
     flights = _measurements(8, seed=1)
     for m, action in zip(flights, ACTIONS):
         stack.observe(m, GOAL, DT_S)
-        stack.command(action, DT_S, m, GOAL)
+        stack.command(action)
     assert stack.surface_trim.trim_deg != [0.0, 0.0] and stack.goal_trim.offset_rad != [0.0, 0.0]
     stack.reset()
     assert stack.last_action is None and stack.surface_trim.trim_deg == [0.0, 0.0]
     assert stack.goal_trim.offset_rad == [0.0, 0.0]
     for m, action in zip(flights[:4], ACTIONS):  # the same flight again gives what a new stack gives
         np.testing.assert_array_equal(stack.observe(m, GOAL, DT_S), fresh.observe(m, GOAL, DT_S))
-        assert stack.command(action, DT_S, m, GOAL) == fresh.command(action, DT_S, m, GOAL)
+        assert stack.command(action) == fresh.command(action)
 
 
 # ----------------------------------------------------------------------------- in closed loop
@@ -359,7 +359,7 @@ class _StackAroundProportional:
         command = self.law.update(dt_s, newest[:N_STATE], newest[-3:]) + np.array([1.0, 1.0, 0.0, 0.0])
         self.law.i_roll_deg = self.law.i_pitch_deg = 0.0
         action = np.clip(command_to_action(command), -1.0, 1.0).tolist()
-        return np.array(self.stack.command(action, dt_s, m, asked))
+        return np.array(self.stack.command(action))
 
 
 @pytest.mark.parametrize(("trims", "pitch_share"), [(StackSettings(surface_trim_gain=0.5), 0.5),

@@ -14,20 +14,11 @@ import torch
 
 import aircraft
 import jsbsim_env
+from jsbsim_env.control.observation import OBS_SIZE, ActionError, action_to_command, command_to_action
 from jsbsim_env.sim import disturbances as dist
 from jsbsim_env.sim.core import NOISE_SIGMA, CommandError, CoreConfig, Envelope, FlightCore
 from jsbsim_env.sim.simulation import TERRAIN_ELEVATION_M
-from jsbsim_env.task.attitude import (
-    GOAL_HIGH,
-    GOAL_LOW,
-    OBS_SIZE,
-    ActionError,
-    AttitudeTask,
-    TaskConfig,
-    action_to_command,
-    command_to_action,
-    reward_terms,
-)
+from jsbsim_env.task.attitude import GOAL_HIGH, GOAL_LOW, AttitudeTask, TaskConfig, reward_terms
 from jsbsim_env.task.metrics import EpisodeRecorder, actuator_smoothness, rmse, smoothness
 from jsbsim_env.task.torchrl_env import SolarUAVAttitudeEnv, make_env
 

@@ -9,13 +9,12 @@ import numpy as np
 import pytest
 import torch
 
+from jsbsim_env.control.observation import OBS_OFFSET, OBS_SCALE
 from jsbsim_env.sim.core import N_STATE
 from jsbsim_env.task.attitude import (
     ACHIEVED_INDEX,
     GOAL_HIGH,
     GOAL_LOW,
-    OBS_OFFSET,
-    OBS_SCALE,
     PENALTY_SATURATION,
     TaskConfig,
     reward_from_achieved,

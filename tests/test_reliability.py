@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 import torch
 
+from jsbsim_env.control.observation import ActionError
 from jsbsim_env.control.policy import PolicyFileError, PolicyRuntime, load_policy
-from jsbsim_env.task.attitude import ActionError
 from training.checkpoint import CheckpointError, atomic_save, checked_load, load_checkpoint
 from training.trainer import Trainer
 

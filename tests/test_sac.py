@@ -8,7 +8,7 @@ import pytest
 import torch
 from tensordict import TensorDict
 
-from jsbsim_env.task.attitude import ACTION_SIZE, OBS_SIZE
+from jsbsim_env.control.observation import ACTION_SIZE, OBS_SIZE
 from training.networks import CriticNet, make_actor, make_critic
 from training.sac import RecurrentSAC, tanh_normal_sample
 from training.sac_reference import SACLossReference

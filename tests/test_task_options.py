@@ -35,7 +35,8 @@ def test_external_throttle_flies_the_throttle_whatever_the_policy_commands():
 def test_speed_hold_episodes_are_speed_free_for_the_policy():
     """The EAS goal the policy sees is its measured EAS, the reward has no airspeed term, and the
     environment marks those steps for the learner (so relabelling leaves them alone)."""
-    from jsbsim_env.task.attitude import EAS_INDEX, OBS_OFFSET, OBS_SCALE
+    from jsbsim_env.control.observation import OBS_OFFSET, OBS_SCALE
+    from jsbsim_env.task.attitude import EAS_INDEX
     from jsbsim_env.task.torchrl_env import SolarUAVAttitudeEnv
 
     batch = AttitudeTaskBatch(1, TaskConfig(external_throttle=1.0))

@@ -1,6 +1,6 @@
 """Typed training configuration with command-line overrides.
 
-Every field has a default and a one-line help; ``TrainConfig.from_args`` turns them into
+Every field has a default and a one-line help; ``TrainConfig.add_arguments`` turns them into
 ``--group.field value`` options (``--help`` lists them), and the full configuration is written as
 JSON with each run. What the policy is trained on and flies with (observation, reward, trims,
 disturbance ranges) is the task version ``env.task`` (``jsbsim_env.task.versions``); the settings

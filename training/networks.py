@@ -14,7 +14,7 @@ from tensordict.nn import TensorDictModule
 from torch import nn
 from torchrl.modules import ProbabilisticActor, TanhNormal
 
-from jsbsim_env.control.network import ActorNet, LSTMEncoder, _mlp
+from jsbsim_env.control.network import ActorNet, LSTMEncoder, mlp
 from jsbsim_env.control.observation import ACTION_SIZE, OBS_SIZE
 
 
@@ -25,24 +25,22 @@ class CriticNet(nn.Module):
                  action_size: int = ACTION_SIZE):
         super().__init__()
         self.encoder = LSTMEncoder(obs_size, lstm_hidden)
-        self.head = _mlp(lstm_hidden + action_size, mlp_hidden, 1)
+        self.head = mlp(lstm_hidden + action_size, mlp_hidden, 1)
 
     def forward(self, window: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
         return self.head(torch.cat([self.encoder(window), action], dim=-1))
 
 
-def make_actor(lstm_hidden: int = 64, mlp_hidden: int = 256, action_spec=None,
-               initial_std: float = 1.0, obs_size: int = OBS_SIZE) -> ProbabilisticActor:
+def make_actor(lstm_hidden: int = 64, mlp_hidden: int = 256, action_spec=None) -> ProbabilisticActor:
     """The SAC actor: ``observation`` -> ``action`` (in [-1, 1]) with ``loc``/``scale``."""
-    module = TensorDictModule(ActorNet(lstm_hidden, mlp_hidden, obs_size=obs_size, initial_std=initial_std),
-                              in_keys=["observation"], out_keys=["loc", "scale"])
+    module = TensorDictModule(ActorNet(lstm_hidden, mlp_hidden), in_keys=["observation"], out_keys=["loc", "scale"])
     return ProbabilisticActor(
         module, in_keys=["loc", "scale"], spec=action_spec, distribution_class=TanhNormal,
         distribution_kwargs={"low": -1.0, "high": 1.0}, return_log_prob=False,
     )
 
 
-def make_critic(lstm_hidden: int = 64, mlp_hidden: int = 256, obs_size: int = OBS_SIZE) -> TensorDictModule:
+def make_critic(lstm_hidden: int = 64, mlp_hidden: int = 256) -> TensorDictModule:
     """One Q network: (``observation``, ``action``) -> ``state_action_value``."""
-    return TensorDictModule(CriticNet(lstm_hidden, mlp_hidden, obs_size=obs_size), in_keys=["observation", "action"],
+    return TensorDictModule(CriticNet(lstm_hidden, mlp_hidden), in_keys=["observation", "action"],
                             out_keys=["state_action_value"])

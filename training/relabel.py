@@ -13,8 +13,9 @@ For a relabelled sample the goal columns of every frame of both observation wind
 replaced by the new goal (held over the window), and the reward is recomputed from the
 transition's ``achieved`` state (``task.reward_from_achieved``). Surface trims (which the policy
 does not observe) are part of the aircraft's state, though under the new goal they would have been
-integrated differently (a small bias, slow as the trims are). Terminated transitions keep their goal: their reward is the episode's last and their state may not be finite.
-So do speed-free transitions (``("next", "speed_free")``, where a speed hold flew the throttle): their
+integrated differently (a small bias, slow as the trims are). Terminated transitions keep their
+goal: their reward is the episode's last and their state may not be finite. So do speed-free
+transitions (``("next", "speed_free")``, where a speed hold flew the throttle): their
 EAS goal is the measured EAS and their reward has no airspeed term.
 """
 

@@ -5,8 +5,7 @@ temperature) plus CAPS (``training.caps``), written out for these networks so th
 done twice (``scripts/bench_train.py`` times it against ``SACLoss`` with the same networks):
 
 * the actor's LSTM runs once, on the batch's observations, on the next observations of the CAPS
-  subset and on their noisy copies (goal-aware CAPS adds the few next windows whose goals stepped,
-  with the goals held); the target actions of the remaining next observations come
+  subset and on their noisy copies; the target actions of the remaining next observations come
   from one pass without gradients;
 * each critic's LSTM runs once on the observations: its features feed the critic loss and,
   detached, the actor loss, whose gradient reaches the actions only (the critic's head enters it
@@ -29,7 +28,7 @@ import torch.nn.functional as F
 from tensordict import TensorDictBase
 from torch import nn
 
-from jsbsim_env.task.attitude import ACTION_SIZE
+from jsbsim_env.control.observation import ACTION_SIZE
 from training.caps import caps_penalties, check_action_weights, spatial_noise
 from training.networks import ActorNet, CriticNet
 

@@ -118,7 +118,7 @@ def metrics(g: AircraftGeometry, data: dict) -> str:
 def mass_balance(g: AircraftGeometry, data: dict) -> str:
     ixx, iyy, izz, ixz = g.inertia_kg_m2
     cg = (data["stability"]["cg_x_m"], 0.0, g.cg_z_m)
-    return HEADER + f"""<!-- the paper's Table 1. The CG sits {fmt(100 * g.static_margin)} % MAC ahead of the neutral point
+    return HEADER + f"""<!-- Mass and inertia: the paper's Table 1. The CG sits {fmt(100 * g.static_margin)} % MAC ahead of the neutral point
      (x = {fmt(data["stability"]["neutral_point_x_m"])} m). ixz is the product of inertia Ixz = integral of x z dm in body
      axes ({fmt(ixz)} kg m2). With negated_crossproduct_inertia="false" JSBSim holds -ixz in its inertia
      tensor, so get_J()[0,2], inertia/ixz-slugs_ft2 and the mass-properties report read {fmt(-ixz)};

@@ -11,7 +11,7 @@ Why not ``jsbsim.FGLinearization``: its ``FGStateSpace::run`` calls
 power fraction. Here the power fraction is the output of each motor's speed controller (the
 throttle commands rotor speed), so that search drives the rotors to the power limit or to rest:
 it takes 20-30 s per point, did not finish in five minutes at 20 km, and leaves the rotors
-stopped. ``tests/test_modes.py`` checks the two methods against each other where both work.
+stopped. ``tests/test_trim_modes.py`` checks the two methods against each other where both work.
 
 Longitudinal block: [V (m/s), alpha (rad), theta (rad), q (rad/s)].
 Lateral-directional block: [beta (rad), phi (rad), p (rad/s), r (rad/s)].

@@ -1,5 +1,6 @@
 """Checked files: written atomically with a SHA-256 of their contents, refused on load when a byte
-has changed or a weight is not finite. Policy files and training checkpoints are both such files.
+has changed; ``non_finite_entries`` names the weights that are not finite, for the loaders to
+refuse. Policy files and training checkpoints are both such files.
 
 A file written by ``atomic_save`` is ``MAGIC``, the SHA-256 of the payload, then the payload
 (``torch.save``'s bytes): a single changed byte anywhere is caught on load, before unpickling.

@@ -27,7 +27,8 @@ class LSTMEncoder(nn.Module):
         return out[:, -1].reshape(*lead, -1)
 
 
-def _mlp(inputs: int, hidden: int, outputs: int) -> nn.Sequential:
+def mlp(inputs: int, hidden: int, outputs: int) -> nn.Sequential:
+    """Two ReLU layers of ``hidden`` units, then a linear output (the actor's and the critics' heads)."""
     return nn.Sequential(nn.Linear(inputs, hidden), nn.ReLU(), nn.Linear(hidden, hidden), nn.ReLU(),
                          nn.Linear(hidden, outputs))
 
@@ -36,13 +37,13 @@ class ActorNet(nn.Module):
     """Observation window -> (loc, scale) of the pre-tanh Gaussian."""
 
     def __init__(self, lstm_hidden: int = 64, mlp_hidden: int = 256, obs_size: int = OBS_SIZE,
-                 action_size: int = ACTION_SIZE, initial_std: float = 1.0):
+                 action_size: int = ACTION_SIZE):
         super().__init__()
         self.encoder = LSTMEncoder(obs_size, lstm_hidden)
-        self.head = _mlp(lstm_hidden, mlp_hidden, 2 * action_size)
-        # Scale through a softplus biased so that a zero input gives ``initial_std``, bounded away
-        # from zero (TorchRL's usual choice for SAC).
-        self.params = NormalParamExtractor(scale_mapping=f"biased_softplus_{initial_std:g}", scale_lb=1e-4)
+        self.head = mlp(lstm_hidden, mlp_hidden, 2 * action_size)
+        # Scale through a softplus biased so that a zero input gives a standard deviation of 1,
+        # bounded away from zero (TorchRL's usual choice for SAC).
+        self.params = NormalParamExtractor(scale_mapping="biased_softplus_1", scale_lb=1e-4)
 
     def forward(self, window: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         return self.params(self.head(self.encoder(window)))

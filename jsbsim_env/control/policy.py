@@ -112,8 +112,7 @@ def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
         if inputs != OBS_SIZE:
             raise PolicyFileError(f"{path} was trained on observations of {inputs} values, and this version has "
                                   f"{OBS_SIZE}; train a new policy")
-        net = ActorNet(data["network"]["lstm_hidden"], data["network"]["mlp_hidden"], obs_size=inputs,
-                       initial_std=data["network"].get("initial_std", 1.0))
+        net = ActorNet(data["network"]["lstm_hidden"], data["network"]["mlp_hidden"], obs_size=inputs)
         net.load_state_dict(state)
     except PolicyFileError:
         raise
@@ -242,13 +241,13 @@ class PolicyRuntime:
         if not math.isfinite(sum(m) + sum(asked)):
             raise ValueError(f"measurement {m} or goal {asked} is not finite")
         if dt_s is None and self.stack.needs_interval:
-            raise ValueError("this policy flies with integral or goal trim: give act() the control interval dt_s")
+            raise ValueError("this policy flies with a surface or goal trim: give act() the control interval dt_s")
         raw = self.action(self.stack.observe(m, asked, dt_s)).tolist()
         action = [min(max(x, -1.0), 1.0) for x in raw]  # a NaN stays NaN
         if not all(-1.0 <= x <= 1.0 for x in action):
             self.reset()  # the window and trims hold this step already: start the next call afresh
             raise ActionError(f"the policy's action {raw} is not finite (the runtime was reset)")
-        return np.array(self.stack.command(action, dt_s, m, asked))
+        return np.array(self.stack.command(action))
 
     def update(self, dt_s: float, measurement: np.ndarray, setpoint: np.ndarray) -> np.ndarray:
         """``act`` under the shared attitude-controller interface (``jsbsim_env.control.base``)."""

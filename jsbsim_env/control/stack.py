@@ -49,7 +49,8 @@ class StackSettings:
     surface_trim_gain: float = 0.0
 
     def __post_init__(self):
-        if not isinstance(self.window_steps, int) or not 1 <= self.window_steps <= 64:
+        if isinstance(self.window_steps, bool) or not isinstance(self.window_steps, int) \
+                or not 1 <= self.window_steps <= 64:
             raise ValueError(f"window_steps must be a whole number in [1, 64], got {self.window_steps!r}")
         check_goal_trim_time_constant(self.goal_trim_time_constant_s, "goal_trim_time_constant_s")
         check_surface_trim_gain(self.surface_trim_gain, "surface_trim_gain")
@@ -63,16 +64,13 @@ class StackSettings:
         unknown = set(data) - set(cls.__dataclass_fields__)
         if unknown:
             raise ValueError(f"unknown control-stack settings {sorted(unknown)}")
-        window = data.get("window_steps", 8)
-        if isinstance(window, bool) or not isinstance(window, int):
-            raise ValueError(f"window_steps must be a whole number, got {window!r}")
         numbers = {}
         for name in ("goal_trim_time_constant_s", "surface_trim_gain"):
             value = data.get(name, 0.0)
             if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise ValueError(f"{name} must be a number, got {value!r}")
+                raise ValueError(f"{name} must be a number, got {value!r}")  # noqa: TRY004 - a bad setting, by name
             numbers[name] = float(value)
-        return cls(window_steps=window, **numbers)
+        return cls(window_steps=data.get("window_steps", 8), **numbers)
 
 
 class ControlStack:
@@ -85,10 +83,12 @@ class ControlStack:
         self.window = ObservationWindow(s.window_steps, OBS_SIZE)
         self.needs_interval = self.goal_trim is not None or self.surface_trim is not None
         self.last_action: list[float] | None = None  # fed back into the next observation
+        self._step: tuple[list[float], list[float], float | None] | None = None  # this step's (measurement, goal, dt_s)
 
     def reset(self) -> None:
         """A new flight: every stage's state back to its start."""
         self.last_action = None
+        self._step = None
         self.window.reset()
         for stage in (self.goal_trim, self.surface_trim):
             if stage is not None:
@@ -98,8 +98,8 @@ class ControlStack:
         """The stages before the network for one control step: the network's window (steps, 20),
         valid until the next call. ``measurement`` in ``core.STATE_NAMES`` order, ``asked`` the goal
         (roll, pitch rad, EAS m/s), both finite lists."""
+        self._step = (measurement, asked, dt_s)
         given = self.goal_trim.goal(asked) if self.goal_trim is not None else asked
-        self._given = given
         first = self.last_action is None
         if first:
             self.last_action = initial_last_action(measurement)
@@ -111,10 +111,14 @@ class ControlStack:
         row = scale_row(seen + self.last_action + given)
         return self.window.push(np.array(row, dtype=np.float32))
 
-    def command(self, action: list[float], dt_s: float | None, measurement: list[float],
-                asked: list[float]) -> list[float]:
-        """The stages after the network: the command (aileron, elevator, rudder deg, throttle) for
-        an action in [-1, 1]^4; then this step's error against the goal asked moves the next goal."""
+    def command(self, action: list[float]) -> list[float]:
+        """The stages after the network, for the step ``observe`` began: the command (aileron,
+        elevator, rudder deg, throttle) for an action in [-1, 1]^4; then this step's error against
+        the goal asked moves the next goal."""
+        if self._step is None:
+            raise RuntimeError("ControlStack.command needs the step's observe() first")
+        measurement, asked, dt_s = self._step
+        self._step = None
         self.last_action = action
         command = action_list_to_command(action)  # within the actuators' travel for actions in [-1, 1]
         if self.surface_trim is not None:

@@ -26,23 +26,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from jsbsim_env.control.observation import (  # noqa: F401 - the task's observation and action, re-exported
-    ACTION_OFFSET,
-    ACTION_SCALE,
+from jsbsim_env.control.observation import (
     ACTION_SIZE,
     ACTION_TOLERANCE,
-    GOAL_COLUMNS,
     GOAL_NAMES,
-    LAST_ACTION_COLUMNS,
-    OBS_OFFSET,
-    OBS_SCALE,
     OBS_SIZE,
     ActionError,
     action_list_to_command,
-    action_to_command,
-    command_to_action,
     initial_last_action,
-    scale_observation,
     scale_row,
 )
 from jsbsim_env.control.pid import GainSchedule, PIDAttitudeController

@@ -21,7 +21,8 @@ from typing import ClassVar
 import gymnasium as gym
 import numpy as np
 
-from jsbsim_env.task.attitude import ACTION_SIZE, AttitudeTask, TaskConfig
+from jsbsim_env.control.observation import ACTION_SIZE
+from jsbsim_env.task.attitude import AttitudeTask, TaskConfig
 
 
 class SolarUAVAttitudeGymEnv(gym.Env):

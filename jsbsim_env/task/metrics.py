@@ -15,8 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
+from jsbsim_env.control.observation import GOAL_NAMES
 from jsbsim_env.sim.core import STATE_NAMES
-from jsbsim_env.task.attitude import GOAL_NAMES, REWARD_TERMS
+from jsbsim_env.task.attitude import REWARD_TERMS
 
 
 def rmse(signal: np.ndarray, reference: np.ndarray | float = 0.0) -> float:

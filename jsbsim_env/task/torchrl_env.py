@@ -14,9 +14,11 @@ from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import Compose, EnvBase, RewardSum, StepCounter, TransformedEnv
 from torchrl.envs.transforms import CatFrames, UnsqueezeTransform
 
-from jsbsim_env.task.attitude import ACHIEVED_INDEX, ACTION_SIZE, REWARD_TERMS, AttitudeTaskBatch, TaskConfig
+from jsbsim_env.control.observation import ACTION_SIZE
+from jsbsim_env.control.stack import StackSettings
+from jsbsim_env.task.attitude import ACHIEVED_INDEX, REWARD_TERMS, AttitudeTaskBatch, TaskConfig
 
-OBSERVATION_WINDOW = 8  # the paper (Section 3.3): the policy sees the last 8 observations
+OBSERVATION_WINDOW = StackSettings().window_steps  # the paper's 8 (Section 3.3): the policy sees the last 8
 
 
 def episode_seed(base_seed: int, env_index: int, episode: int) -> int:

@@ -13,7 +13,6 @@ Both train in the paper's disturbances otherwise (noise, random interval, coeffi
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
 from jsbsim_env.control.stack import StackSettings
@@ -33,7 +32,7 @@ class TaskVersion:
 V0 = TaskVersion("SolarUAVAttitude-v0", TaskConfig(), StackSettings())
 V1 = TaskVersion(
     "SolarUAVAttitude-v1",
-    TaskConfig(core=dataclasses.replace(CoreConfig(), delay_s=(40.0 / 1000.0, 120.0 / 1000.0)),
+    TaskConfig(core=CoreConfig(delay_s=(0.040, 0.120)),
                surface_trim_gain=0.5, sideslip_weight=6.0, roll_weight=2.0, pitch_weight=2.0, penalty_tail=0.1,
                external_throttle=0.3),
     StackSettings(window_steps=8, goal_trim_time_constant_s=20.0, surface_trim_gain=2.0),

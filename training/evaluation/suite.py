@@ -28,8 +28,9 @@ from pathlib import Path
 import numpy as np
 
 from jsbsim_env.control.base import AttitudeController
+from jsbsim_env.control.observation import action_to_command, command_to_action
 from jsbsim_env.sim.core import CoreConfig, termination_reason
-from jsbsim_env.task.attitude import AttitudeTaskBatch, TaskConfig, action_to_command, command_to_action
+from jsbsim_env.task.attitude import AttitudeTaskBatch, TaskConfig
 from jsbsim_env.task.metrics import EpisodeRecorder
 
 DOUBLET_ALTITUDES_M = (500.0, 5000.0, 15000.0)
