@@ -35,6 +35,19 @@ from jsbsim_env.control.trims import (
 )
 
 
+def observation_row(state: list[float], last_action: list[float], goal: list[float],
+                    surface_trim: SurfaceTrim | None = None, noise: list[float] | None = None) -> list[float]:
+    """The network's observation for one step, as a list: a state (``core.STATE_NAMES``), the last
+    action and the goal, with the surface trim's present trims taken off the observed surfaces
+    (the policy sees the part of each surface it commanded), scaled. Flight gives the measured
+    state; the training task gives the true state and the sensor noise to add (``noise``, zero on
+    the action and the goal)."""
+    raw = state + last_action + goal
+    if surface_trim is not None:
+        raw = surface_trim.remove_from(raw)
+    return scale_row(raw, noise)
+
+
 @dataclass(frozen=True)
 class StackSettings:
     """Parameters of the stages around the network.
@@ -103,12 +116,9 @@ class ControlStack:
         first = self.last_action is None
         if first:
             self.last_action = initial_last_action(measurement)
-        seen = measurement
-        if self.surface_trim is not None:
-            if not first:  # the trims start from zero with the flight, as in training
-                self.surface_trim.integrate(dt_s, measurement, given)
-            seen = self.surface_trim.remove_from(measurement)
-        row = scale_row(seen + self.last_action + given)
+        if self.surface_trim is not None and not first:  # the trims start from zero with the flight, as in training
+            self.surface_trim.integrate(dt_s, measurement, given)
+        row = observation_row(measurement, self.last_action, given, self.surface_trim)
         return self.window.push(np.array(row, dtype=np.float32))
 
     def command(self, action: list[float]) -> list[float]:
@@ -128,4 +138,4 @@ class ControlStack:
         return command
 
 
-__all__ = ["ControlStack", "StackSettings"]
+__all__ = ["ControlStack", "StackSettings", "observation_row"]

@@ -34,9 +34,9 @@ from jsbsim_env.control.observation import (
     ActionError,
     action_list_to_command,
     initial_last_action,
-    scale_row,
 )
 from jsbsim_env.control.pid import GainSchedule, PIDAttitudeController
+from jsbsim_env.control.stack import observation_row
 from jsbsim_env.control.trims import SurfaceTrim, check_surface_trim_gain
 from jsbsim_env.sim.core import (
     N_STATE,
@@ -278,14 +278,14 @@ class AttitudeTaskBatch:
 
     # ------------------------------------------------------------------ observations
     def _observation(self, i: int) -> list[float]:
-        """Scaled network observation of aircraft ``i`` (measured state, last action, goal), as a list."""
-        raw = self.states[i] + self.last_actions[i] + self._goal_lists[i]
-        if self._trims is not None:  # the policy observes the part of each surface it commanded
-            raw = self._trims[i].remove_from(raw)
-        noise = self.noise[i] + _NO_EXTRA_NOISE
+        """Scaled network observation of aircraft ``i`` (measured state, last action, goal), as a list:
+        the control stack's ``observation_row`` on the true state and its sensor noise."""
+        goal = self._goal_lists[i]
         if self.external_throttle[i]:  # speed-free: the EAS goal is the measured EAS
-            raw[-1] = self.states[i][EAS_INDEX] + self.noise[i][EAS_INDEX]
-        obs = self._obs_lists[i] = scale_row(raw, noise)
+            goal = [goal[0], goal[1], self.states[i][EAS_INDEX] + self.noise[i][EAS_INDEX]]
+        trim = self._trims[i] if self._trims is not None else None
+        obs = self._obs_lists[i] = observation_row(self.states[i], self.last_actions[i], goal, trim,
+                                                   self.noise[i] + _NO_EXTRA_NOISE)
         return obs
 
     def measurements(self) -> np.ndarray:
