@@ -10,8 +10,10 @@
 
 ``StackSettings`` holds the parameters, as a policy file records them; ``ControlStack`` runs the
 stages around a network for one aircraft (``jsbsim_env.control.policy.PolicyRuntime`` adds the
-network). The training task runs the same stage classes around the plant
-(``jsbsim_env.task.attitude``), so there is one implementation of each.
+network). The training task (``jsbsim_env.task.attitude``) builds its observation with the same
+``observation_row`` and trims its commands with the same ``SurfaceTrim``, so there is one
+implementation of each stage; its window is TorchRL's ``CatFrames``, which ``ObservationWindow``
+keeps exactly.
 """
 
 from __future__ import annotations
