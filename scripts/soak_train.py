@@ -4,7 +4,8 @@
     python scripts/soak_train.py --out runs/soak --frames 200000 --capacity 50000
 
 Starts ``scripts/train_torchrl.py`` (or resumes it: the soak's run folder is ``OUT/run``, and a
-killed soak goes on where it stopped), samples the trainer's resident set size every
+killed soak goes on from its last checkpoint; one killed before its first checkpoint is moved
+aside and starts again), samples the trainer's resident set size every
 ``--sample-s`` seconds into ``OUT/memory.csv`` (wall time, env steps, RSS) and ``OUT/memory.png``,
 and prints a summary:
 RSS when the replay buffer fills, at the end, its maximum, and the growth per 100,000 steps after
@@ -17,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import io
 import json
 import subprocess
 import sys
@@ -40,15 +42,60 @@ def rss_mib(pid: int) -> float | None:
 
 
 def frames_done(run_dir: Path) -> int:
-    """Env steps of the last progress row (0 before the first)."""
+    """Env steps of the last readable progress row (0 before the first). The trainer may be
+    writing a row as it is read, and a killed one leaves a torn row or zeros: those are skipped."""
     path = run_dir / "progress.csv"
-    if not path.exists():
+    try:
+        text = path.read_bytes().decode("utf-8", errors="replace")
+    except OSError:
         return 0
     last = 0
-    with path.open() as fh:
-        for row in csv.DictReader(fh):
+    for row in csv.DictReader(io.StringIO(text.replace("\0", ""))):
+        try:
             last = int(row["frames"])
+        except (KeyError, TypeError, ValueError):
+            continue
     return last
+
+
+def training_command(args, run_dir: Path) -> tuple[list[str], bool]:
+    """The options of ``train_torchrl.py`` for this soak, and whether they start it afresh: a run
+    with a checkpoint is resumed; a run folder without one (the soak was killed before its first
+    checkpoint, every 100,000 steps) is moved aside, with its memory samples, to
+    ``OUT/run.stopped-<time>``, and the soak starts again."""
+    common = ["--collector.total_frames", str(args.frames), "--log.progress", "false"]
+    if (run_dir / "checkpoint.pt").exists():
+        return ["--resume", str(run_dir), *common], False
+    if run_dir.exists():
+        _check_not_training(run_dir)
+        aside = run_dir.with_name(f"{run_dir.name}.stopped-{time.strftime('%Y%m%d-%H%M%S')}")
+        run_dir.rename(aside)
+        memory = args.out / "memory.csv"
+        if memory.exists():
+            memory.rename(aside / memory.name)
+        print(f"soak: {run_dir} stopped before its first checkpoint; moved to {aside}, and the soak starts again",
+              file=sys.stderr)
+    return ["--seed", str(args.seed), "--log.run_root", str(args.out), "--run-name", run_dir.name,
+            "--buffer.capacity", str(args.capacity), "--optim.updates_per_step", str(args.updates_per_step),
+            "--log.checkpoint_every_frames", "100000", *common], True
+
+
+def _check_not_training(run_dir: Path) -> None:
+    """``OutputFolderError`` when a trainer holds the run folder's lock (a soak whose trainer
+    outlived it): its folder is not to be moved."""
+    try:
+        import fcntl
+    except ImportError:
+        return
+    lock = run_dir / ".lock"
+    if not lock.exists():
+        return
+    with lock.open("a") as handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            raise OutputFolderError(f"a trainer is still running in {run_dir}: stop it first") from None
+        fcntl.flock(handle, fcntl.LOCK_UN)
 
 
 def summarise(samples: np.ndarray, capacity: int) -> dict:
@@ -103,17 +150,15 @@ def main(argv=None) -> int:
         return 2
     args.out.mkdir(parents=True, exist_ok=True)
     run_dir = args.out / "run"
-    common = ["--collector.total_frames", str(args.frames), "--log.progress", "false"]
-    if (run_dir / "checkpoint.pt").exists():
-        cmd = ["--resume", str(run_dir), *common]
-    else:
-        cmd = ["--seed", str(args.seed), "--log.run_root", str(args.out), "--run-name", "run",
-               "--buffer.capacity", str(args.capacity), "--optim.updates_per_step", str(args.updates_per_step),
-               "--log.checkpoint_every_frames", "100000", *common]
+    try:
+        cmd, fresh = training_command(args, run_dir)
+    except (OSError, OutputFolderError) as err:
+        print(f"soak: {err}", file=sys.stderr)
+        return 2
     script = Path(__file__).resolve().parent / "train_torchrl.py"
     memory_csv = args.out / "memory.csv"
-    new_file = not memory_csv.exists()
-    with memory_csv.open("a", newline="") as fh, open(args.out / "train.log", "a") as log:
+    new_file = fresh or not memory_csv.exists()  # a new run's samples start a new file
+    with memory_csv.open("w" if new_file else "a", newline="") as fh, open(args.out / "train.log", "a") as log:
         writer = csv.writer(fh)
         if new_file:
             writer.writerow(["wall_s", "frames", "rss_mib"])

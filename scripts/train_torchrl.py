@@ -5,6 +5,12 @@
     python scripts/train_torchrl.py --env.task SolarUAVAttitude-v0   # the paper's task (its Section 3.4)
     python scripts/train_torchrl.py --resume runs/<name>    # continue a stopped run
     python scripts/train_torchrl.py --help                  # every setting
+
+A run is never started over another: a folder that holds a checkpoint or a best policy is refused
+(resume it, or give another --run-name). A folder whose run stopped before its first checkpoint
+holds nothing to resume, and the command that started it starts it afresh, replacing its logs.
+Refusals are one line on stderr with exit code 2; a run folder that cannot be written during
+training ends with one line naming it and its last checkpoint, exit code 1.
 """
 
 from __future__ import annotations
@@ -17,7 +23,7 @@ from pathlib import Path
 
 # Only what the parser needs is imported here: torch and TorchRL load after the arguments are
 # parsed, so that a mistyped option is refused at once.
-from training.config import TrainConfig
+from training.config import TrainConfig, check_run_name
 from training.runtime import torchrl_logs_to_stderr, tune_allocator
 
 # Exit codes of a run stopped by a signal, as a shell reports them (128 + signal number).
@@ -30,8 +36,10 @@ def main(argv: list[str] | None = None) -> int:
     # allow_abbrev=False: an option is matched whole, never by prefix (``--env.num_env`` is an error,
     # not ``--env.num_envs``).
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False)
-    parser.add_argument("--resume", type=Path, metavar="RUN_DIR", help="continue the run in this folder")
-    parser.add_argument("--run-name", help="folder name under --log.run_root (default: seed and time)")
+    parser.add_argument("--resume", type=Path, metavar="RUN_DIR",
+                        help="continue the run in this folder from its last checkpoint")
+    parser.add_argument("--run-name", help="the run's folder under --log.run_root: one plain name; a folder that "
+                                           "holds a run is refused (default: seed and time)")
     parser.add_argument("--json", action="store_true",
                         help="print the last log row as JSON on stdout (everything else goes to stderr)")
     parser.add_argument("--seeds", help="train these seeds (comma-separated), each its own run "
@@ -45,6 +53,17 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.seeds is not None and args.resume:
         parser.error("--seeds resumes its runs itself: give the same command again instead of --resume")
+    # Refusals before any work: one line each, exit code 2.
+    try:
+        if args.resume and args.run_name is not None:
+            raise ValueError("--run-name is not used with --resume: the run goes on in its own folder")
+        if args.run_name is not None:
+            check_run_name(args.run_name)
+        if args.workers < 1:
+            raise ValueError(f"--workers must be at least 1, got {args.workers}")
+    except ValueError as err:
+        print(f"train_torchrl: {err}", file=sys.stderr)
+        return 2
     # The command as the run's sessions record it.
     command = ["python", "scripts/train_torchrl.py", *(sys.argv[1:] if argv is None else argv)]
     if args.seeds is not None:
@@ -53,14 +72,14 @@ def main(argv: list[str] | None = None) -> int:
     tune_allocator()
     from training.checkpoint import CheckpointError
     from training.provenance import append_session
-    from training.trainer import RunLockedError, Trainer, TrainingInterrupted
+    from training.trainer import RunExistsError, RunFolderError, RunLockedError, Trainer, TrainingInterrupted
 
     try:
         if args.resume:
             config_path = args.resume / "config.json"
             if not config_path.is_file():
                 raise CheckpointError(f"no run to resume at {args.resume} (it has no config.json)")
-            saved = TrainConfig.from_dict(json.loads(config_path.read_text()))
+            saved = _read_config(config_path)
             config = TrainConfig.from_namespace(args, base=saved)
             run_dir = args.resume
         else:
@@ -68,10 +87,19 @@ def main(argv: list[str] | None = None) -> int:
             name = args.run_name or f"sac_seed{config.seed}_{time.strftime('%Y%m%d-%H%M%S')}"
             run_dir = Path(config.log.run_root) / name
         trainer = Trainer(config, run_dir, resume=args.resume is not None)
-    except (CheckpointError, RunLockedError, ValueError) as err:
+    except (CheckpointError, RunLockedError, RunExistsError, ValueError) as err:
         print(f"train_torchrl: {err}", file=sys.stderr)
         return 2
-    append_session(run_dir, command, trainer.counters.frames)
+    except RunFolderError as err:
+        print(f"train_torchrl: {err}", file=sys.stderr)
+        return 1
+    for note in trainer.notes:
+        print(f"train_torchrl: {note}", file=sys.stderr)
+    try:
+        append_session(run_dir, command, trainer.counters.frames)
+    except OSError as err:
+        print(f"train_torchrl: cannot write to the run folder {run_dir} ({err.strerror or err})", file=sys.stderr)
+        return 1
     print(f"run folder: {run_dir}", file=sys.stderr)
     try:
         last = trainer.train()
@@ -79,6 +107,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"train_torchrl: stopped by {stop}; go on with: python scripts/train_torchrl.py --resume {run_dir}",
               file=sys.stderr)
         return _SIGNAL_EXIT.get(stop.signal_name, 1)
+    except RunFolderError as err:
+        print(f"train_torchrl: {err}", file=sys.stderr)
+        return 1
     if args.json:
         print(json.dumps({"run_dir": str(run_dir), **last}, indent=2))
     else:
@@ -87,20 +118,41 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
+def _read_config(path: Path) -> TrainConfig:
+    """A run's ``config.json``; ``ValueError`` naming the file when it is not JSON or not a valid
+    configuration."""
+    try:
+        data = json.loads(path.read_bytes().decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise ValueError(f"{path} is not valid JSON ({err}): the run's configuration is damaged") from None
+    except OSError as err:
+        raise ValueError(f"cannot read {path} ({err.strerror or err})") from None
+    try:
+        return TrainConfig.from_dict(data)
+    except (TypeError, ValueError) as err:
+        raise ValueError(f"{path}: {err}") from None
+
+
 def _train_seeds(args, command: list[str]) -> int:
     """Several seeds of one configuration (``training.multiseed``), then their summary."""
     torchrl_logs_to_stderr()
     tune_allocator()
     from training.checkpoint import CheckpointError
     from training.multiseed import seeds_summary, train_seeds
-    from training.trainer import RunLockedError
+    from training.trainer import RunFolderError
 
     try:
-        seeds = [int(x) for x in args.seeds.split(",") if x.strip()]
+        try:
+            seeds = [int(x) for x in args.seeds.split(",") if x.strip()]
+        except ValueError:
+            raise ValueError(f"--seeds must be comma-separated integers, got {args.seeds!r}") from None
         config = TrainConfig.from_namespace(args)
         name = args.run_name or f"sac_{time.strftime('%Y%m%d-%H%M%S')}"
         rows = train_seeds(config, seeds, name, command, args.backend, args.workers, args.address)
-    except (CheckpointError, RunLockedError, ValueError, RuntimeError) as err:
+    except RunFolderError as err:
+        print(f"train_torchrl: {err}", file=sys.stderr)
+        return 1
+    except (CheckpointError, ValueError, RuntimeError) as err:  # RunLockedError, RunExistsError: RuntimeError
         print(f"train_torchrl: {err}", file=sys.stderr)
         return 2
     root = Path(config.log.run_root)

@@ -3,16 +3,19 @@ or in a process pool, with a summary over the seeds at the end (the paper's Fig.
 
 Each seed trains in ``RUN_ROOT/<name>_seed<N>`` on one torch thread. Running the same command
 again resumes every seed from its checkpoint, so a killed batch loses at most one checkpoint
-interval per seed.
+interval per seed; a seed that stopped before its first checkpoint starts afresh (``Trainer``:
+its logs are replaced, and a best policy without a checkpoint is refused rather than replaced).
+A resumed seed must have the same settings (the checkpoint's fingerprint), else it is refused.
 """
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import numpy as np
 
-from training.config import TrainConfig
+from training.config import TrainConfig, check_run_name
 from training.ray_session import ray_session
 
 
@@ -26,17 +29,18 @@ def train_seed(config: dict, run_dir: str, command: list[str]) -> dict:
     path = Path(run_dir)
     resume = (path / "checkpoint.pt").is_file()
     trainer = Trainer(TrainConfig.from_dict(config), path, resume=resume)
+    for note in trainer.notes:
+        print(f"train_torchrl: {note}", file=sys.stderr)
     append_session(path, command, trainer.counters.frames)
     return {"run_dir": run_dir, "resumed": resume, **trainer.train()}
 
 
 def seed_runs(config: TrainConfig, seeds: list[int], name: str) -> list[tuple[dict, str]]:
-    """(settings, run folder) of each seed."""
+    """(settings, run folder) of each seed; ``ValueError`` for a seed or a name that is not allowed."""
+    check_run_name(name)
     out = []
     for seed in seeds:
-        c = TrainConfig.from_dict(config.to_dict())
-        c.seed = seed
-        c.threads = 1
+        c = TrainConfig.from_dict({**config.to_dict(), "seed": seed, "threads": 1})  # checked, as every setting
         out.append((c.to_dict(), str(Path(c.log.run_root) / f"{name}_seed{seed}")))
     return out
 

@@ -3,6 +3,10 @@
 A run folder holds ``config.json``, ``progress.csv``, TensorBoard events (``tb/``), ``checkpoint.pt``
 (everything needed to resume: networks, targets, optimisers, replay buffer, counters, random
 state) and ``best_policy.pt`` (the best deterministic policy by evaluation return).
+
+A new run is not started over a folder that holds a run (``checkpoint.pt`` or ``best_policy.pt``):
+that one is resumed or left alone. A folder whose run stopped before its first checkpoint, with
+neither file, has nothing to resume, and a new run starts afresh in it, replacing its logs.
 """
 
 from __future__ import annotations
@@ -10,7 +14,11 @@ from __future__ import annotations
 import contextlib
 import csv
 import dataclasses
+import io
 import math
+import os
+import re
+import shutil
 import signal
 import threading
 import time
@@ -24,12 +32,13 @@ from torchrl.collectors import Collector
 from torchrl.data import LazyTensorStorage, TensorDictReplayBuffer
 from torchrl.envs.utils import ExplorationType, set_exploration_type, step_mdp
 
+from jsbsim_env.control.checked_io import DamagedFileError, checked_load
 from jsbsim_env.sim.core import CoreConfig
 from jsbsim_env.task.attitude import TaskConfig
 from jsbsim_env.task.torchrl_env import make_env
 from jsbsim_env.task.versions import task_version
 from training.checkpoint import CheckpointError, atomic_save, config_fingerprint, load_checkpoint, save_checkpoint
-from training.config import TrainConfig
+from training.config import TrainConfig, check_device
 from training.networks import make_actor, make_critic
 from training.relabel import relabel_goals
 from training.runtime import check_threads
@@ -48,6 +57,16 @@ def stored_keys(task: TaskConfig) -> tuple:
 CSV_FIELDS = ("frames", "updates", "wall_s", "env_steps_per_s", "episodes", "episode_return", "episode_return_norm",
               "episode_length", "loss_actor", "loss_qvalue", "caps_temporal", "caps_spatial", "alpha", "entropy",
               "eval_return_norm", "eval_length", "eval_early_ends")
+
+
+# What a run folder holds. A folder with either of RUN_FILES holds a run: a new run is not started
+# over it. Without them the run stopped before its first checkpoint, and a new run replaces the
+# files of LOG_FILES it left.
+RUN_FILES = ("checkpoint.pt", "best_policy.pt")
+LOG_FILES = ("config.json", "progress.csv", "progress.csv.tmp", "sessions.jsonl", "tb")
+# ``atomic_save``'s temporary files (``tempfile.mkstemp(prefix=f".{name}.")``: 8 characters of
+# [a-z0-9_]), which a process killed while writing leaves behind.
+_TEMPORARY = re.compile(r"\.(checkpoint\.pt|best_policy\.pt)\.[a-z0-9_]{8}")
 
 
 def _short(value) -> str:
@@ -82,16 +101,25 @@ class Trainer:
 
     def __init__(self, config: TrainConfig, run_dir: Path | str, resume: bool = False):
         self.config = c = config
-        if c.collector.total_frames <= c.collector.init_random_frames:
-            raise ValueError(f"collector.total_frames ({c.collector.total_frames}) must exceed "
-                             f"collector.init_random_frames ({c.collector.init_random_frames}): the run would "
-                             "only take random steps and learn nothing")
+        c.validate()  # settings out of range, or changed since the configuration was made
+        check_device(c.device)
         self.version = version = task_version(c.env.task)
         self.run_dir = Path(run_dir)
+        self.notes: list[str] = []  # what the run did to its folder that its user should hear of
         if resume and not self.run_dir.is_dir():
             raise CheckpointError(f"no run folder to resume at {self.run_dir}")
-        self.run_dir.mkdir(parents=True, exist_ok=True)
-        self._lock = _lock_run_dir(self.run_dir)
+        try:
+            self.run_dir.mkdir(parents=True, exist_ok=True)
+            self._lock = _lock_run_dir(self.run_dir)
+        except OSError as err:
+            raise RunFolderError(f"cannot write to the run folder {self.run_dir} ({_reason(err)})") from None
+        self._folder_id = _identity(self.run_dir)
+        self._checkpoint_frames: int | None = None  # steps of the checkpoint in the folder
+        if resume and not self.checkpoint_path.is_file():
+            raise CheckpointError(self._no_checkpoint_message())
+        if not resume:
+            self._start_afresh()
+        self.remove_stale_temporaries()
         if c.threads > 0:
             torch.set_num_threads(c.threads)
         check_threads(torch.get_num_threads())
@@ -120,10 +148,89 @@ class Trainer:
         if resume:
             self._load()
         else:
-            (self.run_dir / "config.json").write_text(c.to_json())
+            with self._writing():
+                (self.run_dir / "config.json").write_text(c.to_json())
         self._episode_returns: list[float] = []
         self._episode_lengths: list[int] = []
         self._losses: dict[str, list[float]] = {}
+
+    # ------------------------------------------------------------------ the run folder
+    def _no_checkpoint_message(self) -> str:
+        """What to do with a folder whose run stopped before its first checkpoint."""
+        d, every = self.run_dir, self.config.log.checkpoint_every_frames
+        start = (f"start it afresh under its name (--run-name {d.name} --log.run_root {d.parent}; its logs are "
+                 "replaced)")
+        if (d / "best_policy.pt").exists():
+            start = (f"start it afresh under another --run-name (or move its best_policy.pt away and {start})")
+        return (f"{d} has no checkpoint: the run stopped before its first one (every {every:,} env steps), so there is "
+                f"nothing to resume; {start}, or delete the folder")
+
+    def _start_afresh(self) -> None:
+        """A new run in ``run_dir``: refused over a run (``RUN_FILES``); the logs of a run that
+        stopped before its first checkpoint are removed (``notes`` says which)."""
+        held = [name for name in RUN_FILES if (self.run_dir / name).exists()]
+        if "checkpoint.pt" in held:
+            raise RunExistsError(f"{self.run_dir} already holds a run ({', '.join(held)}): go on with it with "
+                                 f"--resume {self.run_dir}, or start afresh under another --run-name")
+        if held:
+            raise RunExistsError(f"{self.run_dir} holds the best_policy.pt of a run that stopped before its first "
+                                 "checkpoint: start afresh under another --run-name, or move best_policy.pt away to "
+                                 "start afresh there")
+        stale = [name for name in LOG_FILES if (self.run_dir / name).exists()]
+        if not stale:
+            return
+        with self._writing():
+            for name in stale:
+                path = self.run_dir / name
+                if path.is_dir() and not path.is_symlink():
+                    shutil.rmtree(path)
+                else:
+                    path.unlink()
+        self.notes.append(f"{self.run_dir} held a run that stopped before its first checkpoint; starting it afresh "
+                          f"(its {', '.join(stale)} replaced)")
+
+    def remove_stale_temporaries(self) -> list[str]:
+        """Remove what writers killed in this folder left (``atomic_save``'s temporaries of
+        ``checkpoint.pt`` and ``best_policy.pt``, the progress log's); returns their names. Only
+        safe under the run's lock, which no other trainer holds: no live writer owns them."""
+        removed = []
+        try:
+            names = [p.name for p in self.run_dir.iterdir()]
+        except OSError:
+            return removed
+        for name in names:
+            if _TEMPORARY.fullmatch(name) or name == "progress.csv.tmp":
+                with contextlib.suppress(OSError):
+                    (self.run_dir / name).unlink()
+                    removed.append(name)
+        return removed
+
+    def _folder_error(self, err: OSError | None = None) -> RunFolderError:
+        """The one-line error of a run folder that can no longer be written, with the state of
+        its checkpoint and what to do."""
+        frames = f"{self.counters.frames:,}" if hasattr(self, "counters") else "0"
+        if _identity(self.run_dir) != self._folder_id:
+            return RunFolderError(f"the run folder {self.run_dir} was removed or replaced during training, at "
+                                  f"{frames} env steps: its checkpoint went with it, and the run cannot go on")
+        if self._checkpoint_frames is not None:
+            state = (f"its last checkpoint is at {self._checkpoint_frames:,} env steps: once the folder can be "
+                     f"written, go on with --resume {self.run_dir}")
+        else:
+            state = "it has no checkpoint yet: once the folder can be written, start it afresh"
+        reason = f" ({_reason(err)})" if err is not None else ""
+        return RunFolderError(f"cannot write to the run folder {self.run_dir} at {frames} env steps{reason}; {state}")
+
+    @contextlib.contextmanager
+    def _writing(self):
+        """Writes to the run folder: an ``OSError`` (read-only, removed, full) becomes a
+        ``RunFolderError``; a folder removed or replaced since the run started is one too, before
+        the write (``atomic_save`` would make a new folder with the checkpoint alone in it)."""
+        if _identity(self.run_dir) != self._folder_id:
+            raise self._folder_error()
+        try:
+            yield
+        except OSError as err:
+            raise self._folder_error(err) from err
 
     # ------------------------------------------------------------------ checkpoints
     @property
@@ -131,7 +238,12 @@ class Trainer:
         return self.run_dir / "checkpoint.pt"
 
     def save(self) -> None:
-        """Write everything a resumed run needs, atomically."""
+        """Write everything a resumed run needs, atomically (``RunFolderError`` where it cannot)."""
+        with self._writing():
+            self._save()
+        self._checkpoint_frames = self.counters.frames
+
+    def _save(self) -> None:
         save_checkpoint(self.checkpoint_path, {
             "config": self.config.to_dict(),
             "sac": self.sac.state_dict(),
@@ -160,24 +272,81 @@ class Trainer:
         torch.set_rng_state(data["torch_rng"])
         # Resumed environments start new episodes where the run's episode counters stood.
         self.env.base_env._episodes[:] = data["env_episodes"]
+        self._checkpoint_frames = self.counters.frames
+        # A best policy saved after this checkpoint (the run was killed between the two) keeps its
+        # place until an evaluation beats its own score.
+        self.counters.best_eval = max(self.counters.best_eval, self._best_policy_score())
         self._trim_progress_log()
 
+    def _best_policy_score(self) -> float:
+        """The evaluation return recorded in the run's ``best_policy.pt`` (-inf without one)."""
+        path = self.run_dir / "best_policy.pt"
+        if not path.exists():
+            return -math.inf
+        try:
+            data = checked_load(path)
+        except (DamagedFileError, OSError) as err:
+            raise CheckpointError(f"{path} is damaged or unreadable ({str(err).replace(chr(10), ' ')}); move it away "
+                                  "to resume (the run's next best evaluation writes a new one)") from None
+        evaluation = data.get("evaluation") if isinstance(data, dict) else None
+        score = evaluation.get("return_norm") if isinstance(evaluation, dict) else None
+        return float(score) if isinstance(score, (int, float)) and math.isfinite(score) else -math.inf
+
     def _trim_progress_log(self) -> None:
-        """Drop log rows written after the checkpoint by a run that was then killed."""
+        """Drop log rows written after the checkpoint by a run that was then killed, and rows that
+        cannot be read: a torn last row, the zeros power loss leaves (``notes`` says how many)."""
         path = self.run_dir / "progress.csv"
         if not path.exists():
             return
-        rows = [r for r in csv.DictReader(path.open()) if int(r["frames"]) <= self.counters.frames]
+        try:
+            text = path.read_bytes().decode("utf-8", errors="replace")
+        except OSError as err:
+            raise CheckpointError(f"cannot read the progress log {path} ({_reason(err)})") from None
+        # Every row ends with a line break: what follows the last one is a row cut short.
+        lines = text.split("\n")
+        torn = 1 if lines[-1].strip("\0\r ") else 0
+        header, rows = None, []
+        for line in lines[:-1]:
+            readable = "\0" not in line and "\ufffd" not in line
+            fields = next(csv.reader(io.StringIO(line)), []) if readable else []
+            if header is None:
+                if readable and "frames" in fields:
+                    header = fields
+                else:
+                    torn += 1 if line.strip("\0\r ") else 0
+                continue
+            if not fields:
+                torn += 1 if line.strip("\0\r ") else 0
+                continue
+            row = dict(zip(header, fields))
+            try:
+                frames = int(row["frames"])
+            except ValueError:
+                frames = None
+            if len(fields) != len(header) or frames is None:
+                torn += 1
+            elif frames <= self.counters.frames:
+                rows.append(row)
+        if torn:
+            self.notes.append(f"{path}: dropped {torn} unreadable row{'s' if torn > 1 else ''} (a write cut short, "
+                              "as a kill or power loss leaves)")
         tmp = path.with_suffix(".csv.tmp")
-        with tmp.open("w", newline="") as fh:
-            w = csv.DictWriter(fh, fieldnames=CSV_FIELDS)
-            w.writeheader()
-            w.writerows(rows)
-        tmp.replace(path)
+        try:
+            with tmp.open("w", newline="") as fh:
+                w = csv.DictWriter(fh, fieldnames=CSV_FIELDS, extrasaction="ignore")
+                w.writeheader()
+                w.writerows(rows)
+            tmp.replace(path)
+        except OSError as err:
+            raise CheckpointError(f"cannot rewrite the progress log {path} ({_reason(err)})") from None
 
     def save_policy(self, path: Path, evaluation: dict) -> None:
         """The deterministic policy and the control stack it flies with (the task version's), for
         ``jsbsim_env.control.policy``."""
+        with self._writing():
+            self._save_policy(path, evaluation)
+
+    def _save_policy(self, path: Path, evaluation: dict) -> None:
         atomic_save({
             "actor": self.actor.state_dict(),
             "network": self.config.network.__dict__,
@@ -212,10 +381,8 @@ class Trainer:
         remaining = c.collector.total_frames - self.counters.frames
         if remaining <= 0:
             return {}
+        # At least one aircraft step each: ``TrainConfig.validate`` keeps frames_per_batch >= num_envs.
         frames_per_batch = c.collector.frames_per_batch - c.collector.frames_per_batch % c.env.num_envs
-        if frames_per_batch <= 0:
-            raise ValueError(f"collector.frames_per_batch ({c.collector.frames_per_batch}) must be at least "
-                             f"env.num_envs ({c.env.num_envs})")
         # The collector takes random steps in whole batches; rounding up here keeps it from warning.
         random_frames = frames_per_batch * math.ceil(max(0, c.collector.init_random_frames - self.counters.frames)
                                                      / frames_per_batch)
@@ -228,7 +395,12 @@ class Trainer:
             # The LSTMs read a window of observations and keep no state between steps.
             auto_register_policy_transforms=False,
         )
-        writer, csv_file, csv_writer = self._open_logs()
+        try:
+            with self._writing():
+                writer, csv_file, csv_writer = self._open_logs()
+        except BaseException:
+            collector.shutdown()
+            raise
         bar = self._progress_bar()
         session_start, start_frames = time.perf_counter(), self.counters.frames
         wall_before = self.counters.wall_s  # time spent by earlier sessions of a resumed run
@@ -265,12 +437,13 @@ class Trainer:
                         next_eval = _next_multiple(self.counters.frames, c.log.eval_every_frames)
                     if self.counters.frames >= next_log or evaluation is not None:
                         row = self._log_row(start_frames, session_start, evaluation)
-                        csv_writer.writerow(row)
-                        csv_file.flush()
-                        for key, value in row.items():
-                            if key not in ("frames", "updates") and value != "" and value is not None:
-                                writer.add_scalar(key, value, self.counters.frames)
-                        writer.flush()
+                        with self._writing():
+                            csv_writer.writerow(row)
+                            csv_file.flush()
+                            for key, value in row.items():
+                                if key not in ("frames", "updates") and value != "" and value is not None:
+                                    writer.add_scalar(key, value, self.counters.frames)
+                            writer.flush()
                         if bar is not None:  # the return of the latest evaluation and the best one so far
                             last_eval = evaluation["return_norm"] if evaluation is not None else last_eval
                             bar.set_postfix(sps=f"{row['env_steps_per_s']:.0f}", ret=_short(row["episode_return_norm"]),
@@ -283,13 +456,28 @@ class Trainer:
                         self.save()
                         raise TrainingInterrupted(signal.Signals(stop[0]).name, self.counters.frames,
                                                   self.checkpoint_path)
-            finally:
-                collector.shutdown()
-                writer.close()
-                csv_file.close()
-                if bar is not None:
-                    bar.close()
+            except BaseException:
+                self._close(collector, writer, csv_file, bar, quiet=True)  # the error in flight is the one to tell
+                raise
+            self._close(collector, writer, csv_file, bar, quiet=False)
         return row
+
+    def _close(self, collector, writer, csv_file, bar, quiet: bool) -> None:
+        """End a session: the collector, the logs (their last buffered rows written), the progress
+        bar, and temporaries that killed writers left. A log that cannot be written raises
+        ``RunFolderError`` unless ``quiet``."""
+        collector.shutdown()
+        if bar is not None:
+            bar.close()
+        failed = None
+        for close in (writer.close, csv_file.close):
+            try:
+                close()
+            except OSError as err:
+                failed = failed or err
+        self.remove_stale_temporaries()
+        if failed is not None and not quiet:
+            raise self._folder_error(failed) from failed
 
     def evaluate(self) -> dict:
         """Deterministic evaluation on the fixed seeded episode set; keeps the best policy."""
@@ -297,8 +485,8 @@ class Trainer:
         result = evaluate_policy(self.actor, self.eval_task_config, episodes=c.log.eval_episodes,
                                  max_steps=EVAL_MAX_STEPS, window=self.window)
         if result["return_norm"] > self.counters.best_eval:
-            self.counters.best_eval = result["return_norm"]
             self.save_policy(self.run_dir / "best_policy.pt", {**result, "frames": self.counters.frames})
+            self.counters.best_eval = result["return_norm"]
         return result
 
     # ------------------------------------------------------------------ logging
@@ -345,6 +533,31 @@ class Trainer:
 
 class RunLockedError(RuntimeError):
     """Another process is training in this run folder."""
+
+
+class RunExistsError(RuntimeError):
+    """A new run asked for in a folder that holds a run (resume it, or use another folder)."""
+
+
+class RunFolderError(RuntimeError):
+    """The run folder cannot be written (read-only, full, removed): one line naming it and the
+    state of its checkpoint."""
+
+
+def _reason(err: OSError) -> str:
+    """An OS error in words, with the file it concerns."""
+    text = err.strerror or str(err)
+    return f"{text}: {err.filename}" if err.filename else text
+
+
+def _identity(path: Path) -> tuple[int, int] | None:
+    """(device, inode) of a folder, None where there is none: a folder removed, or removed and made
+    again, has another."""
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return (st.st_dev, st.st_ino)
 
 
 def _lock_run_dir(run_dir: Path):
