@@ -147,6 +147,11 @@ class ObservationWindow:
     def reset(self) -> None:
         self._filled = False
 
+    @property
+    def rows(self) -> np.ndarray:
+        """The window's own array (steps, size), as ``push`` returns it."""
+        return self._rows
+
     def push(self, observation) -> np.ndarray:
         """Add one observation; returns the window (steps, size), valid until the next push."""
         if not self._filled:

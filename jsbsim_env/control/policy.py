@@ -31,11 +31,17 @@ from torch import nn
 
 from jsbsim_env.control.checked_io import DamagedFileError, checked_load, non_finite_entries
 from jsbsim_env.control.network import ActorNet
-from jsbsim_env.control.observation import OBS_SIZE, ActionError
+from jsbsim_env.control.observation import GOAL_NAMES, OBS_SIZE, ActionError
 from jsbsim_env.control.stack import ControlStack, StackSettings
+from jsbsim_env.sim.core import N_STATE
 
 SHIPPED_POLICY = "solar_uav_policy.pt"  # in shipped/ beside this module, with its ONNX export
 ONNX_SOURCE_KEY = "policy_sha256"  # ONNX metadata: digest of the policy file the model was exported from
+MEASUREMENT_SHAPE = (N_STATE,)  # core.STATE_NAMES
+GOAL_SHAPE = (len(GOAL_NAMES),)  # roll, pitch rad; EAS m/s
+# An export beside a policy file is used only when it computes what the policy computes: its action
+# for a probe window within this of PyTorch's (the two agree to about 1e-6).
+ONNX_AGREEMENT_TOL = 1e-4
 
 
 class PolicyFileError(RuntimeError):
@@ -92,12 +98,18 @@ def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
     path = Path(path)
     if not path.is_file():
         raise PolicyFileError(f"no policy file at {path}")
+    if path.suffix.lower() == ".onnx":
+        raise PolicyFileError(f"{path} is an ONNX export, not a policy file: give the policy file (.pt) it was "
+                              "exported from")
     try:
         data = checked_load(path)
     except DamagedFileError as err:  # damaged, or not a file of this package at all; it names the file
         raise PolicyFileError(str(err)) from err
+    if isinstance(data, dict) and "format_version" in data and "sac" in data:  # training.checkpoint's keys
+        raise PolicyFileError(f"{path} is a training checkpoint, not a policy file: give the run's best_policy.pt")
     if not isinstance(data, dict) or "actor" not in data or "network" not in data:
-        raise PolicyFileError(f"{path} is not a policy file of this package (no actor network in it)")
+        raise PolicyFileError(f"{path} is not a policy file of this package (no actor network in it; it holds "
+                              f"{_describe(data)})")
     try:
         bad = non_finite_entries(data["actor"])
         if bad:
@@ -117,12 +129,28 @@ def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
     except PolicyFileError:
         raise
     except Exception as err:  # missing keys and shape mismatches all mean the same here
-        raise PolicyFileError(f"{path} is not a usable policy file: {err}") from err
+        why = "; ".join(line.strip() for line in str(err).splitlines() if line.strip())  # one line
+        raise PolicyFileError(f"{path} is not a usable policy file: {why}") from err
     actor = DeterministicActor(net).eval()
     # The stack replaces the flat settings an older file records it with.
     meta = {k: v for k, v in data.items() if k != "actor" and k not in _FLAT_DEFAULTS}
     meta["stack"] = stack
     return actor, meta
+
+
+def _describe(data) -> str:
+    """What a loaded file holds, in a few words, for an error that refuses it."""
+    if isinstance(data, dict):
+        keys = [str(k) for k in data]
+        shown = ", ".join(keys[:6]) + (f" and {len(keys) - 6} more" if len(keys) > 6 else "")
+        return f"a dict with keys {shown}" if keys else "an empty dict"
+    if isinstance(data, torch.Tensor):
+        return f"a tensor of shape {tuple(data.shape)}"
+    if isinstance(data, (list, tuple)):
+        return f"a {type(data).__name__} of {len(data)} items"
+    if isinstance(data, nn.Module):
+        return f"a whole {type(data).__name__} module"
+    return f"a {type(data).__name__}"
 
 
 def policy_digest(path: Path | str) -> str:
@@ -131,13 +159,17 @@ def policy_digest(path: Path | str) -> str:
 
 
 def onnx_source_digest(path: Path | str) -> str | None:
-    """The policy digest an ONNX export was made from (None: no file, or no digest in it)."""
+    """The policy digest an ONNX export was made from (None: no file, no digest in it, or a file
+    that cannot be read as ONNX: truncated, damaged or something else)."""
     import onnx
 
     path = Path(path)
-    if not path.exists():
+    if not path.is_file():
         return None
-    model = onnx.load(str(path), load_external_data=False)
+    try:
+        model = onnx.load(str(path), load_external_data=False)
+    except Exception:  # noqa: BLE001 - protobuf's DecodeError and the like: not an export to use
+        return None
     return {p.key: p.value for p in model.metadata_props}.get(ONNX_SOURCE_KEY)
 
 
@@ -190,29 +222,38 @@ class PolicyRuntime:
         self.window = self.stack.settings.window_steps
         self.observation_size = OBS_SIZE
         self.backend = backend
+        self._window_shape = (self.window, self.observation_size)
         if backend == "onnx":
-            import onnxruntime as ort
-
-            onnx_path = self._current_onnx(path)
-            options = ort.SessionOptions()
-            options.intra_op_num_threads = 1
-            options.inter_op_num_threads = 1
-            self._session = ort.InferenceSession(str(onnx_path), options, providers=["CPUExecutionProvider"])
+            self._session = self._onnx_session(path)
         elif backend != "torch":
             raise ValueError(f"backend must be 'onnx' or 'torch', got {backend!r}")
 
-    def _current_onnx(self, path: Path) -> Path:
-        """The ONNX export of the policy file at ``path``: the one beside it when it was made from
-        this very file (a training run rewrites its best policy, so an older export must not be
-        reused), else a fresh export in a temporary folder that lives as long as the runtime:
-        nothing is written beside the user's files (``scripts/ship_policy.py`` writes the export
-        that ships)."""
+    def _onnx_session(self, path: Path):
+        """An onnxruntime session (one thread) on the ONNX export of the policy file at ``path``:
+        the one beside it when it was made from this very file (a training run rewrites its best
+        policy, so an older export must not be reused), loads and computes what the policy does;
+        else a fresh export in a temporary folder that lives as long as the runtime: nothing is
+        written beside the user's files (``scripts/ship_policy.py`` writes the export that ships)."""
         digest = policy_digest(path)
-        onnx_path = path.with_suffix(".onnx")
-        if onnx_source_digest(onnx_path) == digest:
-            return onnx_path
+        beside = path.with_suffix(".onnx")
+        if onnx_source_digest(beside) == digest:
+            try:
+                session = _ort_session(beside)
+                if self._agrees(session):
+                    return session
+            except Exception:  # noqa: BLE001, S110 - damaged past its metadata: exported afresh below
+                pass
         self._export_dir = tempfile.TemporaryDirectory()
-        return export_onnx(self.actor, Path(self._export_dir.name) / onnx_path.name, self.window, digest)
+        return _ort_session(export_onnx(self.actor, Path(self._export_dir.name) / beside.name, self.window, digest))
+
+    def _agrees(self, session) -> bool:
+        """Whether ``session`` gives the PyTorch actor's action for a probe window (an export whose
+        weights changed after it was written, on disk or in a copy, would not)."""
+        probe = np.random.default_rng(0).normal(size=(1, *self._window_shape)).astype(np.float32)
+        with torch.no_grad():
+            expected = self.actor(torch.from_numpy(probe))[0].numpy()
+        got = session.run(None, {"window": probe})[0][0]
+        return got.shape == expected.shape and bool(np.all(np.abs(got - expected) <= ONNX_AGREEMENT_TOL))
 
     def reset(self) -> None:
         """A new flight: the window, the last action and the trims start afresh."""
@@ -223,25 +264,42 @@ class PolicyRuntime:
         return self.stack.window.push(self._as_frame(observation)).copy()
 
     def action(self, window: np.ndarray) -> np.ndarray:
-        """Action in [-1, 1]^4 for one window."""
-        x = np.asarray(window, dtype=np.float32)[None]
+        """Action in [-1, 1]^4 for one window (window, observation size), oldest first. A window of
+        another shape (PyTorch's LSTM would read any length) or not finite (onnxruntime's LSTM
+        would turn a NaN into a finite action) is refused (``ValueError``). The runtime's own
+        window (``act``, ``act_scaled``, ``push``) had each row checked as it came in, and is not
+        checked again here: a check of the whole window would cost a tenth of a control step."""
+        x = np.asarray(window, dtype=np.float32)
+        if x.shape != self._window_shape:
+            raise ValueError(f"window must have shape {self._window_shape} (steps, observation values), "
+                             f"got {x.shape}")
+        if x is not self.stack.window.rows and not math.isfinite(x.sum(dtype=np.float64)):  # float64: no overflow
+            raise ValueError("window is not finite (NaN or infinity in it)")
         if self.backend == "onnx":
-            return self._session.run(None, {"window": x})[0][0]
+            return self._session.run(None, {"window": x[None]})[0][0]
         with torch.no_grad():
-            return self.actor(torch.from_numpy(x))[0].numpy()
+            return self.actor(torch.from_numpy(x[None]))[0].numpy()
 
     def act(self, measurement: np.ndarray, goal: np.ndarray, dt_s: float | None = None) -> np.ndarray:
         """Actuator command (aileron, elevator, rudder in deg, throttle) for a measured state
         (``core.STATE_NAMES``) and goal (roll, pitch in rad, EAS in m/s); ``dt_s``, the control
-        interval, is needed by a policy that flies with trims. A measurement or goal that is not
-        finite is refused (``ValueError``): the network would map it to some finite command."""
+        interval, is needed by a policy that flies with trims. A measurement or goal of another
+        shape, or not finite, and an interval that is not positive and finite are refused
+        (``ValueError``) before any stage moves: the network would map them to some finite command."""
+        measurement, goal = np.asarray(measurement, dtype=float), np.asarray(goal, dtype=float)
+        if measurement.shape != MEASUREMENT_SHAPE or goal.shape != GOAL_SHAPE:  # a zip would truncate a longer one
+            raise ValueError(_shape_error(measurement.shape, goal.shape))
         # On plain floats throughout: numpy's per-call overhead would cost more than the arithmetic.
-        m, asked = np.asarray(measurement, dtype=float).tolist(), np.asarray(goal, dtype=float).tolist()
+        m, asked = measurement.tolist(), goal.tolist()
         # One sum of plain floats is not finite if any value is not, at a fraction of np.isfinite's cost.
         if not math.isfinite(sum(m) + sum(asked)):
             raise ValueError(f"measurement {m} or goal {asked} is not finite")
-        if dt_s is None and self.stack.needs_interval:
-            raise ValueError("this policy flies with a surface or goal trim: give act() the control interval dt_s")
+        if self.stack.needs_interval:
+            if dt_s is None:
+                raise ValueError("this policy flies with a surface or goal trim: give act() the control interval "
+                                 "dt_s")
+            if not 0.0 < dt_s < math.inf:  # NaN fails too; checked before the first step's stages move
+                raise ValueError(f"control interval must be positive and finite, got {dt_s} s")
         raw = self.action(self.stack.observe(m, asked, dt_s)).tolist()
         action = [min(max(x, -1.0), 1.0) for x in raw]  # a NaN stays NaN
         if not all(-1.0 <= x <= 1.0 for x in action):
@@ -255,12 +313,39 @@ class PolicyRuntime:
 
     def act_scaled(self, observation: np.ndarray) -> np.ndarray:
         """Action in [-1, 1]^4 for an already scaled observation, as the environments give (the
-        environment adds any surface trims to the command)."""
+        environment adds any surface trims to the command). An observation of another size, or
+        not finite, is refused (``ValueError``) before either backend: onnxruntime's LSTM would
+        turn a NaN into a finite action."""
         return self.action(self.stack.window.push(self._as_frame(observation)))
 
     def _as_frame(self, observation: np.ndarray) -> np.ndarray:
-        """One scaled observation as a window row (float32, ``observation_size`` values)."""
-        return np.asarray(observation, dtype=np.float32).reshape(self.observation_size)
+        """One scaled observation as a window row (float32, ``observation_size`` values), finite."""
+        frame = np.asarray(observation, dtype=np.float32)
+        if frame.shape != (self.observation_size,):
+            raise ValueError(f"observation must have shape ({self.observation_size},), got {frame.shape}")
+        # A sum of plain floats is not finite if any value is not (and cannot overflow as float32 could).
+        if not math.isfinite(sum(frame.tolist())):
+            raise ValueError(f"observation {frame.tolist()} is not finite")
+        return frame
+
+
+def _shape_error(measurement_shape: tuple, goal_shape: tuple) -> str:
+    """The message that refuses a measurement or goal of the wrong shape, naming each one that is."""
+    wrong = [f"{name} must have shape {want} ({what}), got {got}"
+             for name, want, got, what in (("measurement", MEASUREMENT_SHAPE, measurement_shape, "core.STATE_NAMES"),
+                                           ("goal", GOAL_SHAPE, goal_shape, "roll, pitch rad; EAS m/s"))
+             if got != want]
+    return "; ".join(wrong)
+
+
+def _ort_session(path: Path):
+    """An onnxruntime session on one thread, on the CPU."""
+    import onnxruntime as ort
+
+    options = ort.SessionOptions()
+    options.intra_op_num_threads = 1
+    options.inter_op_num_threads = 1
+    return ort.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
 
 
 __all__ = [

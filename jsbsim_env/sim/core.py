@@ -28,6 +28,7 @@ from jsbsim_env.sim import disturbances as dist
 from jsbsim_env.sim import turbulence as turb
 from jsbsim_env.sim.model_check import SCALED_TERMS
 from jsbsim_env.sim.simulation import (
+    ALTITUDE_RANGE_M,
     CONTROL_INPUTS,
     EAS_RANGE_MPS,
     FT_TO_M,
@@ -35,6 +36,7 @@ from jsbsim_env.sim.simulation import (
     RHO0_KG_M3,
     RHO0_SLUG_FT3,
     SURFACE_LIMITS_DEG,
+    TERRAIN_ELEVATION_M,
     Simulation,
 )
 from jsbsim_env.sim.trim_table import TrimTable
@@ -120,6 +122,22 @@ class CoreConfig:
             raise ValueError(f"turbulence_sigma_mps must be finite and >= 0, got {self.turbulence_sigma_mps}")
         if not self.servo_rate_limit_degps > 0.0:  # NaN fails too
             raise ValueError(f"servo_rate_limit_degps must be positive, got {self.servo_rate_limit_degps}")
+        # The start ranges as ranges here; FlightCore checks them against where its aircraft can start.
+        for name in ("altitude_range_m", "eas_range_mps"):
+            low, high = getattr(self, name)
+            if not (-math.inf < low <= high < math.inf):  # NaN fails too
+                raise ValueError(f"{name} must be a finite range (low, high) with low <= high, got {(low, high)}")
+        if not 0.0 < self.sim_rate_hz < math.inf:
+            raise ValueError(f"sim_rate_hz must be positive and finite, got {self.sim_rate_hz}")
+        for name in ("perturb_attitude_deg", "perturb_rate_degps", "perturb_eas_mps", "backlash_deg",
+                     "noise_reversion_per_s"):
+            if not 0.0 <= getattr(self, name) < math.inf:  # NaN fails too
+                raise ValueError(f"{name} must be finite and >= 0, got {getattr(self, name)}")
+        if isinstance(self.max_steps, bool) or not isinstance(self.max_steps, (int, np.integer)) or self.max_steps < 1:
+            raise ValueError(f"max_steps must be a whole number >= 1, got {self.max_steps!r}")
+        if self.parameters != dist.RANDOMISED and self.parameters not in dist.PARAMETER_SETS:
+            raise ValueError(f"unknown parameter set {self.parameters!r}: use {dist.RANDOMISED!r} or one of "
+                             f"{sorted(dist.PARAMETER_SETS)}")
 
     @classmethod
     def ideal(cls, **overrides) -> CoreConfig:
@@ -162,6 +180,28 @@ class CommandError(ValueError):
     """A command that is not finite or not inside the actuator ranges."""
 
 
+def start_ranges(span_m: float) -> tuple[tuple[float, float], tuple[float, float]]:
+    """Where an episode of an aircraft of span ``span_m`` can start: altitude (m above sea level)
+    and EAS (m/s). EAS: the trim table's range (``EAS_RANGE_MPS``; outside it a start would take
+    the nearest trim for its own). Altitude: up to the envelope's and the trim table's top
+    (``ALTITUDE_RANGE_M``); below the envelope's floor (sea level) down to half the span above the
+    terrain (``TERRAIN_ELEVATION_M``), where no attitude puts a wing tip into it: such a start ends
+    as a ground strike, as the tests of that check use it."""
+    return (TERRAIN_ELEVATION_M + 0.5 * span_m, ALTITUDE_RANGE_M[1]), EAS_RANGE_MPS
+
+
+def _start_value(name: str, value, limits: tuple[float, float], unit: str, why: str) -> float:
+    """``value`` as a float when it lies in ``limits``; else one ``ValueError`` naming it and them."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number, got {value!r}") from None
+    if not limits[0] <= x <= limits[1]:  # NaN fails too
+        raise ValueError(f"{name} {x:g} {unit} is outside where an episode can start: {limits[0]:g}..{limits[1]:g} "
+                         f"{unit} ({why})")
+    return x
+
+
 class FlightCore:
     """One aircraft with delay, noise, turbulence, parameter sets and backlash.
 
@@ -179,6 +219,12 @@ class FlightCore:
         self._command_scale = (1.0 / SURFACE_LIMITS_DEG["aileron"], 1.0 / SURFACE_LIMITS_DEG["elevator"],
                                1.0 / SURFACE_LIMITS_DEG["rudder"], 1.0)
         self._load()
+        self.start_altitude_range_m, self.start_eas_range_mps = start_ranges(self.span_m)
+        for name, (low, high), limits, unit, why in (
+                ("altitude_range_m", self.config.altitude_range_m, self.start_altitude_range_m, "m", self._altitude_why),
+                ("eas_range_mps", self.config.eas_range_mps, self.start_eas_range_mps, "m/s", self._eas_why)):
+            for value in (low, high):
+                _start_value(f"CoreConfig.{name}", value, limits, unit, why)
         self.setup: EpisodeSetup | None = None
         self.rng = np.random.default_rng()
         # Multiplies the turbulence series: missions switch it between 0 and 1 by route leg.
@@ -209,6 +255,15 @@ class FlightCore:
         self._set_gust = [setter(f"atmosphere/gust-{a}-fps") for a in ("north", "east", "down")]
         self._set_gust_rate = [setter(f"atmosphere/gust-{a}-rad_sec") for a in "pqr"]
 
+    @property
+    def _altitude_why(self) -> str:
+        return (f"the flight envelope is {ALTITUDE_RANGE_M[0]:g}..{ALTITUDE_RANGE_M[1]:g} m; below it a start must "
+                f"clear the terrain at {TERRAIN_ELEVATION_M:g} m by half the {self.span_m:.3g} m span")
+
+    @property
+    def _eas_why(self) -> str:
+        return "the EAS range of the trim table the start is trimmed from"
+
     # ------------------------------------------------------------------ episode start
     def reset(self, seed: int | None = None, altitude_m: float | None = None,
               airspeed_eas_mps: float | None = None, parameters: str | None = None,
@@ -216,9 +271,22 @@ class FlightCore:
         """Start an episode: draw its setting, trim, perturb. Returns the first measurement.
 
         ``altitude_m``, ``airspeed_eas_mps``, ``parameters`` and ``heading_deg`` override the
-        draws (evaluation, missions).
+        draws (evaluation, missions). An altitude or EAS outside where an episode can start
+        (``start_ranges``: ``start_altitude_range_m``, ``start_eas_range_mps``), or not a number,
+        and a heading that is not finite are refused (``ValueError``) before anything changes.
         """
         cfg = self.config
+        if altitude_m is not None:
+            _start_value("altitude_m", altitude_m, self.start_altitude_range_m, "m", self._altitude_why)
+        if airspeed_eas_mps is not None:
+            _start_value("airspeed_eas_mps", airspeed_eas_mps, self.start_eas_range_mps, "m/s", self._eas_why)
+        if heading_deg is not None:
+            try:
+                finite = math.isfinite(float(heading_deg))
+            except (TypeError, ValueError):
+                finite = False
+            if not finite:
+                raise ValueError(f"heading_deg must be a finite number, got {heading_deg!r}")
         self.rng = rng = np.random.default_rng(seed)
         # Draw everything up front, in a fixed order, so that overrides do not shift later draws.
         alt = float(rng.uniform(*cfg.altitude_range_m))
@@ -313,6 +381,8 @@ class FlightCore:
         ``command``: aileron, elevator, rudder (deg), throttle; any sequence of 4 floats.
         """
         setup = self.setup
+        if setup is None:
+            raise RuntimeError("the flight core has no episode: call reset() before step()")
         k = self.step_index
         # Simulation step at which the command reaches the actuators, and the one that ends the interval.
         apply_at = math.ceil((k * setup.control_interval_s + setup.delay_s) / self.dt_s - 1e-9)

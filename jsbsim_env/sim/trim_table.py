@@ -7,6 +7,7 @@ table per aircraft (JSBSim root and aircraft name).
 
 from __future__ import annotations
 
+import math
 import threading
 from dataclasses import dataclass
 from pathlib import Path
@@ -15,7 +16,7 @@ from typing import ClassVar
 import numpy as np
 
 import aircraft
-from jsbsim_env.sim.simulation import ALTITUDE_RANGE_M, EAS_RANGE_MPS, Simulation
+from jsbsim_env.sim.simulation import ALTITUDE_RANGE_M, EAS_RANGE_MPS, Simulation, TrimError
 
 GRID_ALTITUDES_M = np.array([0.0, 500.0, *np.arange(1000.0, 20001.0, 1000.0)])
 GRID_EAS_MPS = np.arange(EAS_RANGE_MPS[0], EAS_RANGE_MPS[1] + 0.01, 1.0)
@@ -80,7 +81,9 @@ class TrimTable:
                 self._node(i, j)
 
     def lookup(self, altitude_m: float, airspeed_eas_mps: float) -> TrimPoint:
-        """Trim at any point of the envelope (clipped to it)."""
+        """Trim at any point of the envelope (clipped to it); ``TrimError`` for a point that is not finite."""
+        if not (math.isfinite(altitude_m) and math.isfinite(airspeed_eas_mps)):
+            raise TrimError(f"no trim at altitude {altitude_m} m, EAS {airspeed_eas_mps} m/s: both must be finite")
         h = float(np.clip(altitude_m, *ALTITUDE_RANGE_M))
         v = float(np.clip(airspeed_eas_mps, *EAS_RANGE_MPS))
         i = int(np.clip(np.searchsorted(GRID_ALTITUDES_M, h) - 1, 0, len(GRID_ALTITUDES_M) - 2))

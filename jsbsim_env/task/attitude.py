@@ -125,6 +125,9 @@ class TaskConfig:
 
     def __post_init__(self):
         check_surface_trim_gain(self.surface_trim_gain, "surface_trim_gain")
+        low, high = self.goal_hold_s
+        if not 0.0 < low <= high < math.inf:  # NaN fails too
+            raise ValueError(f"goal_hold_s must be a finite range (low, high) with 0 < low <= high, got {(low, high)}")
         for name in ("sideslip_weight", "roll_weight", "pitch_weight"):
             if not 0.0 <= getattr(self, name) <= 10.0:
                 raise ValueError(f"{name} must lie in [0, 10], got {getattr(self, name)}")
@@ -139,6 +142,15 @@ class TaskConfig:
 
 
 _NO_EXTRA_NOISE = [0.0] * (ACTION_SIZE + len(GOAL_NAMES))  # the last action and the goals are known exactly
+# What an episode start may override (``FlightCore.reset``'s keywords): gymnasium's reset options.
+RESET_OPTIONS = ("altitude_m", "airspeed_eas_mps", "parameters", "heading_deg")
+
+
+def check_num_envs(num_envs, name: str = "num_envs") -> int:
+    """``num_envs`` as an int when it is a whole number >= 1; else a ``ValueError`` naming ``name``."""
+    if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+        raise ValueError(f"{name} must be a whole number of aircraft >= 1, got {num_envs!r}")
+    return int(num_envs)
 
 
 class AttitudeTaskBatch:
@@ -150,7 +162,7 @@ class AttitudeTaskBatch:
 
     def __init__(self, num_envs: int, config: TaskConfig | None = None, root=None):
         self.config = config or TaskConfig()
-        self.num_envs = n = num_envs
+        self.num_envs = n = check_num_envs(num_envs)
         self.cores = [FlightCore(self.config.core, root) for _ in range(n)]
         self.states: list[list[float]] = [[0.0] * N_STATE for _ in range(n)]  # true states
         self.noise: list[list[float]] = [[0.0] * N_STATE for _ in range(n)]
@@ -172,12 +184,21 @@ class AttitudeTaskBatch:
         self._penalty_tail = self.config.penalty_tail
         self.external_throttle = [False] * n  # whether the speed hold flies each aircraft's throttle
         self._obs_lists: list[list[float]] = [[0.0] * OBS_SIZE for _ in range(n)]
+        self._not_started = set(range(n))  # aircraft without an episode yet: step() needs reset_one() first
 
     # ------------------------------------------------------------------ episode start
     def reset_one(self, i: int, seed: int | None = None, **overrides) -> np.ndarray:
-        """Start a new episode on aircraft ``i``; ``overrides`` go to ``FlightCore.reset``. Returns its observation."""
+        """Start a new episode on aircraft ``i``; ``overrides`` go to ``FlightCore.reset``
+        (``RESET_OPTIONS``). Returns its observation."""
+        if isinstance(i, bool) or not isinstance(i, (int, np.integer)) or not 0 <= i < self.num_envs:
+            raise IndexError(f"aircraft index must be a whole number in 0..{self.num_envs - 1}, got {i!r}")
+        unknown = sorted(set(overrides) - set(RESET_OPTIONS))
+        if unknown:
+            raise ValueError(f"unknown episode-start option(s) {', '.join(map(repr, unknown))}: use "
+                             f"{', '.join(RESET_OPTIONS)}")
         core = self.cores[i]
         core.reset(seed, **overrides)
+        self._not_started.discard(i)
         self.states[i] = core.last_true_state = core.true_state()
         self.last_actions[i] = initial_last_action(self.states[i])
         self.interval_s[i] = core.setup.control_interval_s
@@ -205,6 +226,9 @@ class AttitudeTaskBatch:
         reward), terminated and truncated flags, and termination codes (``core.TERMINATION_CAUSES``).
         The caller resets the aircraft whose episode ended.
         """
+        if self._not_started:
+            who = "the aircraft has" if self.num_envs == 1 else f"aircraft {sorted(self._not_started)} have"
+            raise RuntimeError(f"{who} no episode yet: call reset() before step()")
         actions = np.asarray(actions, dtype=float)
         if actions.shape != (self.num_envs, ACTION_SIZE):
             raise ActionError(f"actions must have shape ({self.num_envs}, {ACTION_SIZE}): one row of aileron, "
@@ -270,7 +294,11 @@ class AttitudeTaskBatch:
 
     def set_goal(self, i: int, goal) -> None:
         """Give aircraft ``i`` this goal and hold it (its random schedule stops until the next reset);
-        for scripted references such as doublets."""
+        for scripted references such as doublets. A goal that is not 3 finite values (roll, pitch
+        rad; EAS m/s) is refused (``ValueError``): a NaN goal would make every reward NaN."""
+        g = np.asarray(goal, dtype=float)
+        if g.shape != (len(GOAL_NAMES),) or not math.isfinite(sum(g.tolist())):
+            raise ValueError(f"goal must be {len(GOAL_NAMES)} finite values (roll, pitch rad; EAS m/s), got {goal!r}")
         self.goals[i] = goal
         self._goal_lists[i] = self.goals[i].tolist()
         self.next_goal_change_s[i] = math.inf

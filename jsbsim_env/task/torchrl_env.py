@@ -14,9 +14,9 @@ from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import Compose, EnvBase, RewardSum, StepCounter, TransformedEnv
 from torchrl.envs.transforms import CatFrames, UnsqueezeTransform
 
-from jsbsim_env.control.observation import ACTION_SIZE
+from jsbsim_env.control.observation import ACTION_SIZE, ActionError
 from jsbsim_env.control.stack import StackSettings
-from jsbsim_env.task.attitude import ACHIEVED_INDEX, REWARD_TERMS, AttitudeTaskBatch, TaskConfig
+from jsbsim_env.task.attitude import ACHIEVED_INDEX, REWARD_TERMS, AttitudeTaskBatch, TaskConfig, check_num_envs
 
 OBSERVATION_WINDOW = StackSettings().window_steps  # the paper's 8 (Section 3.3): the policy sees the last 8
 
@@ -42,6 +42,7 @@ class SolarUAVAttitudeEnv(EnvBase):
     batch_locked = True
 
     def __init__(self, num_envs: int = 8, config: TaskConfig | None = None, seed: int = 0):
+        num_envs = check_num_envs(num_envs)  # before TorchRL builds a batch of it
         # The simulation runs on the CPU; collectors move the data to a training device.
         super().__init__(device="cpu", batch_size=torch.Size([num_envs]))
         self.num_envs = num_envs
@@ -90,7 +91,11 @@ class SolarUAVAttitudeEnv(EnvBase):
         return out
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
-        obs, terms, terminated, truncated, codes = self.batch.step(tensordict["action"].detach().cpu().numpy())
+        action = tensordict.get("action", None)
+        if action is None:
+            raise ActionError(f"the TensorDict given to step() has no 'action' entry (num_envs x {ACTION_SIZE} "
+                              f"actions in [-1, 1]); its keys: {sorted(map(str, tensordict.keys()))}")
+        obs, terms, terminated, truncated, codes = self.batch.step(action.detach().cpu().numpy())
         self._obs[:] = obs
         self._terms[:] = terms[:, :4]
         # A terminated aircraft's state can be non-finite; its reward is 0 whatever the goal.
@@ -117,7 +122,13 @@ class SolarUAVAttitudeEnv(EnvBase):
 def make_env(num_envs: int = 8, config: TaskConfig | None = None, seed: int = 0,
              window: int = OBSERVATION_WINDOW) -> TransformedEnv:
     """The training environment: the 8-step observation window (``observation`` becomes
-    (num_envs, window, 20), oldest first), a step counter and the episode reward sum."""
+    (num_envs, window, 20), oldest first), a step counter and the episode reward sum. ``num_envs``
+    and ``window`` must be whole numbers >= 1 (the window at most 64, as a policy file's)."""
+    num_envs = check_num_envs(num_envs)
+    try:
+        StackSettings(window_steps=window)
+    except ValueError:
+        raise ValueError(f"window must be a whole number of steps in [1, 64], got {window!r}") from None
     env = SolarUAVAttitudeEnv(num_envs, config, seed)
     return TransformedEnv(env, Compose(
         UnsqueezeTransform(dim=-2, in_keys=["observation"], out_keys=["observation"]),
