@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import io
 import json
 import subprocess
 import sys
@@ -27,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from training.progress_log import read_progress
 from training.runtime import OutputFolderError, check_output_folder
 
 
@@ -44,18 +44,11 @@ def rss_mib(pid: int) -> float | None:
 def frames_done(run_dir: Path) -> int:
     """Env steps of the last readable progress row (0 before the first). The trainer may be
     writing a row as it is read, and a killed one leaves a torn row or zeros: those are skipped."""
-    path = run_dir / "progress.csv"
     try:
-        text = path.read_bytes().decode("utf-8", errors="replace")
+        rows, _ = read_progress(run_dir / "progress.csv")
     except OSError:
         return 0
-    last = 0
-    for row in csv.DictReader(io.StringIO(text.replace("\0", ""))):
-        try:
-            last = int(row["frames"])
-        except (KeyError, TypeError, ValueError):
-            continue
-    return last
+    return int(rows[-1]["frames"]) if rows else 0
 
 
 def training_command(args, run_dir: Path) -> tuple[list[str], bool]:

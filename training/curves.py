@@ -9,14 +9,15 @@ that never learned reaches 0.9 of its final value at once).
 
 from __future__ import annotations
 
-import csv
 from pathlib import Path
 
 import numpy as np
 
+from training.progress_log import read_progress
+
 
 def load_curve(run_dir: Path, key: str, x: str = "frames") -> tuple[np.ndarray, np.ndarray]:
-    rows = [r for r in csv.DictReader((run_dir / "progress.csv").open()) if r[key] != ""]
+    rows = [r for r in read_progress(run_dir / "progress.csv")[0] if r.get(key, "") != ""]
     return np.array([float(r[x]) for r in rows]), np.array([float(r[key]) for r in rows])
 
 
@@ -24,7 +25,7 @@ def run_summary(run_dir: Path, final_evals: int = 3) -> dict:
     """Wall-clock time, final evaluation return and the steps to 0.9 of it, from ``progress.csv``."""
     if final_evals < 1:
         raise ValueError(f"final_evals must be at least 1, not {final_evals}")
-    rows = list(csv.DictReader((run_dir / "progress.csv").open()))
+    rows = read_progress(run_dir / "progress.csv")[0]
     if not rows:
         raise ValueError(f"{run_dir}/progress.csv has no rows yet")
     frames, evals = load_curve(run_dir, "eval_return_norm")

@@ -6,7 +6,6 @@ exact commands, commits and aircraft that produced it.
 
 from __future__ import annotations
 
-import csv
 import json
 import shlex
 import subprocess
@@ -14,6 +13,7 @@ import time
 from pathlib import Path
 
 import aircraft
+from training.progress_log import read_progress
 from training.runtime import available_cores
 
 SESSIONS_FILE = "sessions.jsonl"
@@ -58,7 +58,7 @@ def training_wall_clock(run_dir: Path | str, frames: int) -> dict:
     """Training wall-clock (s, over all sessions) from the run's ``progress.csv``: at the first row
     with at least ``frames`` steps (None if the run never got there), and at its last row."""
     path = Path(run_dir) / "progress.csv"
-    rows = list(csv.DictReader(path.open())) if path.exists() else []
+    rows = read_progress(path)[0] if path.exists() else []
     if not rows:
         raise ValueError(f"{path} is missing or has no rows: the run's wall-clock is unknown")
     at = [float(r["wall_s"]) for r in rows if int(r["frames"]) >= frames]

@@ -14,7 +14,6 @@ from __future__ import annotations
 import contextlib
 import csv
 import dataclasses
-import io
 import math
 import os
 import re
@@ -40,6 +39,7 @@ from jsbsim_env.task.versions import task_version
 from training.checkpoint import CheckpointError, atomic_save, config_fingerprint, load_checkpoint, save_checkpoint
 from training.config import TrainConfig, check_device
 from training.networks import make_actor, make_critic
+from training.progress_log import read_progress
 from training.relabel import relabel_goals
 from training.runtime import check_threads
 from training.sac import RecurrentSAC
@@ -299,34 +299,10 @@ class Trainer:
         if not path.exists():
             return
         try:
-            text = path.read_bytes().decode("utf-8", errors="replace")
+            readable, torn = read_progress(path)
         except OSError as err:
             raise CheckpointError(f"cannot read the progress log {path} ({_reason(err)})") from None
-        # Every row ends with a line break: what follows the last one is a row cut short.
-        lines = text.split("\n")
-        torn = 1 if lines[-1].strip("\0\r ") else 0
-        header, rows = None, []
-        for line in lines[:-1]:
-            readable = "\0" not in line and "\ufffd" not in line
-            fields = next(csv.reader(io.StringIO(line)), []) if readable else []
-            if header is None:
-                if readable and "frames" in fields:
-                    header = fields
-                else:
-                    torn += 1 if line.strip("\0\r ") else 0
-                continue
-            if not fields:
-                torn += 1 if line.strip("\0\r ") else 0
-                continue
-            row = dict(zip(header, fields))
-            try:
-                frames = int(row["frames"])
-            except ValueError:
-                frames = None
-            if len(fields) != len(header) or frames is None:
-                torn += 1
-            elif frames <= self.counters.frames:
-                rows.append(row)
+        rows = [row for row in readable if int(row["frames"]) <= self.counters.frames]
         if torn:
             self.notes.append(f"{path}: dropped {torn} unreadable row{'s' if torn > 1 else ''} (a write cut short, "
                               "as a kill or power loss leaves)")
