@@ -21,7 +21,6 @@ it, whether it was kept) and a paragraph on each decision kept.
 
 from __future__ import annotations
 
-import argparse
 import json
 import re
 import textwrap
@@ -32,7 +31,7 @@ import numpy as np
 
 # Only numpy and training.runtime (no torch, no simulation) load before the arguments are parsed,
 # so that a mistyped option is refused at once; the flights' modules load where they are flown.
-from training.runtime import OutputFolderError, check_output_folder
+from training.runtime import OutputFolderError, ScriptParser, check_output_folder, positive_int
 
 # Scorecard sections (named by the key each adds to the scorecard) and the report experiments
 # they are flown with; a cached scorecard that lacks a section gets only that section's flights.
@@ -262,12 +261,11 @@ def record_markdown(record: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
-                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    parser = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
     parser.add_argument("runs", type=Path, nargs="*",
                         help="run folders, each with best_policy.pt (none: --markdown prints the record of every "
                              "candidate tried)")
-    parser.add_argument("--episodes", type=int, default=50, help="evaluation-suite episodes per run")
+    parser.add_argument("--episodes", type=positive_int, default=50, help="evaluation-suite episodes per run")
     parser.add_argument("--pid", type=Path, metavar="DIR", help="also score the PID, its flights in DIR")
     output = parser.add_mutually_exclusive_group()
     output.add_argument("--json", action="store_true", help="print every scorecard as JSON (the default)")

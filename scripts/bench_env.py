@@ -21,7 +21,6 @@ length like those of a trained policy. Ratios are env / raw (and env / flight).
 
 from __future__ import annotations
 
-import argparse
 import json
 import multiprocessing
 import statistics
@@ -33,6 +32,7 @@ from jsbsim_env.control.observation import ACTION_OFFSET, ACTION_SCALE, command_
 from jsbsim_env.sim.core import CoreConfig, FlightCore
 from jsbsim_env.sim.trim_table import TrimTable
 from jsbsim_env.task.attitude import AttitudeTask
+from training.runtime import ScriptParser, non_negative_int, positive_float, positive_int
 
 # torch and TorchRL (SolarUAVAttitudeEnv) load in the functions that use them, after the arguments
 # are parsed.
@@ -131,15 +131,15 @@ def processes_rate(processes: int, batch: int, seconds: float, seed: int) -> flo
     return sum(sim for sim, _ in results) / max(w for _, w in results) if wall > 0 else 0.0
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
-                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    parser.add_argument("--seconds", type=float, default=100.0, help="simulated seconds per measurement and aircraft")
-    parser.add_argument("--rounds", type=int, default=3, help="repeats of each measurement; the median is reported")
-    parser.add_argument("--batch", type=int, nargs="+", default=[8, 32], help="aircraft per batched environment")
-    parser.add_argument("--processes", type=int, default=2, help="processes for the multi-process figure (0: skip)")
+def main(argv: list[str] | None = None) -> None:
+    parser = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seconds", type=positive_float, default=100.0, help="simulated seconds per measurement and aircraft")
+    parser.add_argument("--rounds", type=positive_int, default=3, help="repeats of each measurement; the median is reported")
+    parser.add_argument("--batch", type=positive_int, nargs="+", default=[8, 32], help="aircraft per batched environment")
+    parser.add_argument("--processes", type=non_negative_int, default=2,
+                        help="processes for the multi-process figure (0 or 1: skip it)")
     parser.add_argument("--json", action="store_true", help="print the figures as JSON")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     import torch
 
     from jsbsim_env.task.torchrl_env import SolarUAVAttitudeEnv

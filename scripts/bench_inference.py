@@ -8,12 +8,13 @@ into the 8-step window, run the network, map the action to actuator commands.
 
 from __future__ import annotations
 
-import argparse
 import json
 import time
 from pathlib import Path
 
 import numpy as np
+
+from training.runtime import ScriptParser, number_type
 
 # torch, onnxruntime and the policy runtime load in main(), after the arguments are parsed.
 
@@ -38,13 +39,13 @@ def latencies_us(runtime, steps: int, rng: np.random.Generator) -> np.ndarray:
     return timed_us(lambda k: runtime.act(measurements[k], goal, CONTROL_INTERVAL_S), steps)
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
-                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+def main(argv: list[str] | None = None) -> None:
+    parser = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
     parser.add_argument("--policy", type=Path, help="policy file (.pt); the shipped controller when omitted")
-    parser.add_argument("--steps", type=int, default=5000, help="control steps timed")
+    parser.add_argument("--steps", type=number_type(int, 5), default=5000,
+                        help="control steps timed (torch: a fifth of them)")
     parser.add_argument("--json", action="store_true", help="print the figures as JSON")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     import torch
 
     from jsbsim_env.control.policy import PolicyFileError, PolicyRuntime

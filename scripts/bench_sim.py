@@ -8,7 +8,6 @@ the figures are medians over the rounds.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import statistics
@@ -17,6 +16,7 @@ import time
 import jsbsim
 
 import aircraft
+from training.runtime import ScriptParser, positive_int
 
 SIM_RATE_HZ = 120.0
 
@@ -52,13 +52,12 @@ def steps_per_second(fdm, steps: int) -> float:
     return steps / (time.perf_counter() - t0)
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
-                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    parser.add_argument("--steps", type=int, default=3000, help="fdm.run() calls per round and aircraft")
-    parser.add_argument("--rounds", type=int, default=7, help="repeats of each measurement; the median is reported")
+def main(argv: list[str] | None = None) -> None:
+    parser = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
+    parser.add_argument("--steps", type=positive_int, default=3000, help="fdm.run() calls per round and aircraft")
+    parser.add_argument("--rounds", type=positive_int, default=7, help="repeats of each measurement; the median is reported")
     parser.add_argument("--json", action="store_true", help="print the figures as JSON")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     os.environ.setdefault("JSBSIM_DEBUG", "0")
     rates = {"solar_uav": [], "c172x": []}
     for _ in range(args.rounds):

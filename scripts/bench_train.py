@@ -10,27 +10,24 @@ same process in interleaved rounds, so that ``update_to_reference`` holds on a n
 
 from __future__ import annotations
 
-import argparse
 import json
 import statistics
 import tempfile
 import time
 
 # torch, TorchRL and the simulation load in main(), after the arguments are parsed.
-from training.runtime import torchrl_logs_to_stderr, tune_allocator
+from training.runtime import ScriptParser, non_negative_int, positive_int, torchrl_logs_to_stderr, tune_allocator
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
-                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    parser = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
     parser.add_argument("--device", default="cpu", help="torch device the update runs on (cpu, or cuda where a GPU is present)")
-    parser.add_argument("--threads", type=int, default=1, help="torch threads (1, as training)")
-    parser.add_argument("--updates", type=int, default=30, help="updates timed per round")
-    parser.add_argument("--rounds", type=int, default=3, help="repeats of each measurement; the median is reported")
+    parser.add_argument("--threads", type=non_negative_int, default=1,
+                        help="torch threads (1, as training; 0: torch's default, all cores)")
+    parser.add_argument("--updates", type=positive_int, default=30, help="updates timed per round")
+    parser.add_argument("--rounds", type=positive_int, default=3, help="repeats of each measurement; the median is reported")
     parser.add_argument("--json", action="store_true", help="print the figures as JSON")
     args = parser.parse_args(argv)
-    if min(args.updates, args.rounds) < 1:
-        parser.error("--updates and --rounds must be at least 1")
     torchrl_logs_to_stderr()
     tune_allocator()
     import torch

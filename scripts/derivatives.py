@@ -9,14 +9,14 @@ after a held 5 deg aileron step, and the linear modes. Exits with status 2 when 
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import sys
 
 from jsbsim_env.analysis import derivatives
 from jsbsim_env.analysis.modes import LinearisationError, linear_modes
-from jsbsim_env.sim.simulation import Simulation, TrimError
+from jsbsim_env.sim.simulation import ALTITUDE_RANGE_M, EAS_RANGE_MPS, Simulation, TrimError
+from training.runtime import ScriptParser, number_type
 
 
 def measure(altitude_m: float, airspeed_eas_mps: float) -> dict:
@@ -35,10 +35,11 @@ def measure(altitude_m: float, airspeed_eas_mps: float) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
-                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    parser.add_argument("--altitude-m", type=float, default=1000.0, help="altitude above sea level, m (default 1000)")
-    parser.add_argument("--veas-mps", type=float, default=10.0, help="equivalent airspeed, m/s (default 10)")
+    parser = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
+    parser.add_argument("--altitude-m", type=number_type(float, *ALTITUDE_RANGE_M, unit="m", outside="the flight envelope"), default=1000.0,
+                        help=f"altitude above sea level, m (the envelope: {ALTITUDE_RANGE_M[0]:g}-{ALTITUDE_RANGE_M[1]:g})")
+    parser.add_argument("--veas-mps", type=number_type(float, *EAS_RANGE_MPS, unit="m/s", outside="the flight envelope"), default=10.0,
+                        help=f"equivalent airspeed, m/s (the envelope: {EAS_RANGE_MPS[0]:g}-{EAS_RANGE_MPS[1]:g})")
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     args = parser.parse_args(argv)
     try:

@@ -6,11 +6,11 @@
 
 from __future__ import annotations
 
-import argparse
 import json
 
 from jsbsim_env.analysis.modes import linear_modes
 from jsbsim_env.sim.simulation import Simulation
+from training.runtime import ScriptParser
 
 ALTITUDES_M = (500.0, 1000.0, 5000.0, 10000.0, 15000.0, 20000.0)
 EAS_MPS = (8.0, 10.0, 12.0)
@@ -58,11 +58,10 @@ def markdown(points: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
-                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+def main(argv: list[str] | None = None) -> None:
+    parser = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
     parser.add_argument("--json", action="store_true", help="print the table as JSON")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     points = envelope()
     print(json.dumps(points, indent=2) if args.json else markdown(points))
 

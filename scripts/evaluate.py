@@ -8,7 +8,8 @@ the PID on the same suite.
     python scripts/evaluate.py --compare runs/a/best_policy.pt runs/b/best_policy.pt   # one table
 
 The suite (``training.evaluation.suite``): the doublets at three altitudes, then ``--episodes``
-seeded training-style episodes; every controller flies the same ones.
+seeded training-style episodes; every controller flies the same ones. A ``--plots`` folder that
+holds an earlier evaluation's plots is refused unless ``--overwrite``, which replaces them.
 """
 
 from __future__ import annotations
@@ -21,10 +22,19 @@ from pathlib import Path
 
 # Only the standard library and training.runtime (no torch) load before the arguments are parsed,
 # so that a mistyped option is refused at once; the simulation and the networks load in main().
-from training.runtime import OutputFolderError, check_output_folder
+from training.runtime import (
+    OutputFolderError,
+    ScriptParser,
+    claim_output_folder,
+    positive_int,
+    remove_earlier_results,
+)
 
 SHIPPED, PID = "shipped", "PID"  # column names of --compare
 DEFAULT_EPISODES = 50
+# The files --plots receives (training.evaluation.suite.doublet_runs): an earlier evaluation's are
+# refused, or replaced with --overwrite.
+PLOT_RESULTS = ("doublets_*m.png", "doublets_*m.npz")
 
 
 def why_null(path: str) -> str:
@@ -55,8 +65,7 @@ class _HelpWithSuite(argparse.Action):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], add_help=False, allow_abbrev=False,
-                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    parser = ScriptParser(__file__, description=__doc__.split("\n\n")[0], add_help=False)
     parser.add_argument("-h", "--help", action=_HelpWithSuite, help="show this help message and exit")
     parser.add_argument("--controller", choices=("policy", "pid"), default="policy",
                         help="the trained policy, or the gain-scheduled PID baseline")
@@ -64,9 +73,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--compare", type=Path, nargs="+", metavar="POLICY",
                         help="fly these policy files, the shipped policy and the PID on the same suite and print "
                              "one table, a column each (with --json: one object keyed by controller name)")
-    parser.add_argument("--episodes", type=int, default=DEFAULT_EPISODES,
+    parser.add_argument("--episodes", type=positive_int, default=DEFAULT_EPISODES,
                         help="seeded training-style episodes (at least 1; the seeds are below)")
     parser.add_argument("--plots", type=Path, help="folder for the doublet plots (none when omitted)")
+    parser.add_argument("--overwrite", action="store_true", help="replace the plots of an earlier evaluation in --plots")
     parser.add_argument("--backend", choices=("onnx", "torch"), default="onnx",
                         help="runtime of the policy: onnxruntime or PyTorch")
     parser.add_argument("--json", action="store_true", help="print the metrics as JSON (no progress bar)")
@@ -83,18 +93,18 @@ def main(argv: list[str] | None = None) -> int:
                      "without --policy or --controller")
     if args.compare and args.plots:
         parser.error("--plots is for one controller: without --compare")
-    if args.episodes < 1:
-        parser.error(f"--episodes must be at least 1, got {args.episodes}")
     if args.compare:
         names = [str(p) for p in args.compare]
         if len(set(names)) < len(names) or {SHIPPED, PID} & set(names):
             parser.error(f"--compare takes distinct policy files (other than {SHIPPED!r} and {PID!r}), got {names}")
     if args.plots is not None:
         try:
-            check_output_folder(args.plots)
+            claim_output_folder(args.plots, PLOT_RESULTS, args.overwrite)
         except OutputFolderError as err:
             print(f"evaluate: --plots: {err}", file=sys.stderr)
             return 2
+    elif args.overwrite:
+        parser.error("--overwrite is for --plots")
 
     import torch
 
@@ -112,6 +122,8 @@ def main(argv: list[str] | None = None) -> int:
         print(json.dumps(results, indent=2, allow_nan=False, default=str) if args.json else comparison_table(results))
         return 0
     ((controller, about),) = controllers.values()
+    if args.plots is not None and args.overwrite:
+        remove_earlier_results(args.plots, PLOT_RESULTS)
     results = _evaluate(controller, about, args.episodes, args.plots, progress=not args.json)
     print(json.dumps(results, indent=2, allow_nan=False, default=str))
     return 0

@@ -13,13 +13,13 @@ with ``scripts/ship_policy.py``.
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import sys
 from pathlib import Path
 
 # torch and the simulation load in the functions, after the arguments are parsed.
+from training.runtime import ScriptParser
 
 
 def markdown(rows: dict[str, dict]) -> str:
@@ -43,8 +43,7 @@ def markdown(rows: dict[str, dict]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
-                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    parser = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
     parser.add_argument("runs", type=Path, nargs="*", help="run folders, each with best_policy.pt")
     parser.add_argument("--pid", action="store_true", help="also fly the PID")
     parser.add_argument("--json", action="store_true", help="print the scores as JSON instead of a table")

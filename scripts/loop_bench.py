@@ -11,6 +11,14 @@ same route in this process with the same controller and seed, and prints the loo
 the in-process run's). Writes ``summary.json``, ``frames.npz`` and ``loop_bench.png`` to ``--out``.
 With ``--device`` the plant opens that port and waits for a controller started elsewhere with
 ``python -m jsbsim_env.bench.node --device PORT``.
+
+Every option is checked before the controller process starts (one line on stderr, exit code 2): a
+number out of its range, a fault that is not known, out of range or given twice, a fault after the
+flight's end, and in real time a line too slow (``--baud``) or too late (``delay_ms``) for any answer
+to arrive within the failsafe's hold time (``jsbsim_env.bench.plant``: 50.8 ms of ``delay_ms`` at the
+defaults). An ``--out`` that holds an earlier bench's results is refused unless ``--overwrite``. A
+controller process that dies during the flight is survived: the failsafe PID flies on, and the
+summary records when (``controller_lost_at_s``).
 """
 
 from __future__ import annotations
@@ -23,30 +31,61 @@ from pathlib import Path
 
 import numpy as np
 
-from training.runtime import OutputFolderError, check_output_folder
+from training.runtime import (
+    OutputFolderError,
+    ScriptParser,
+    claim_output_folder,
+    non_negative_int,
+    number_type,
+    positive_int,
+    remove_earlier_results,
+    seed_int,
+)
+
+# The files a bench writes to --out (an earlier bench's are refused, or replaced with --overwrite).
+RESULTS = ("summary.json", "frames.npz", "loop_bench.png")
+MAX_DURATION_S = 3600.0  # jsbsim_env.bench.plant.MAX_DURATION_S (not imported here: it loads pymavlink)
 
 
-def parse_args(argv=None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
-                                formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+def build_parser() -> argparse.ArgumentParser:
+    p = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
     p.add_argument("--mode", choices=("realtime", "lockstep"), default="realtime",
                    help="realtime: 25 Hz frame clock with deadlines; lockstep: wait for every answer (deterministic)")
     p.add_argument("--controller", choices=("policy", "pid"), default="policy", help="the controller process flies this")
     p.add_argument("--policy", default=None, help="policy file (.pt); the shipped policy when omitted")
-    p.add_argument("--duration", type=float, default=60.0, help="flight time, s")
-    p.add_argument("--baud", type=int, default=115_200, help="line rate, bit/s (10 bits a byte)")
+    p.add_argument("--duration", type=number_type(float, 0.0, MAX_DURATION_S, low_open=True, unit="s"), default=60.0,
+                   help="flight time, s")
+    p.add_argument("--baud", type=positive_int, default=115_200,
+                   help="line rate, bit/s (10 bits a byte; in real time, fast enough for a frame's round trip)")
     p.add_argument("--faults", default="",
                    help="comma-separated: drop=P, corrupt=P (per frame and direction), delay_ms=MS, "
                         "disconnect_at=S, disconnect_s=S, stall_at=S, stall_s=S (flight time, s)")
     p.add_argument("--device", default=None, help="a real serial port; the controller runs elsewhere (module docstring)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the flight (turbulence, noise) and of the faults")
-    p.add_argument("--timeout-frames", type=int, default=3, help="frames the last command is held before the PID flies")
-    p.add_argument("--recover-frames", type=int, default=5,
+    p.add_argument("--seed", type=seed_int, default=0, help="seed of the flight (turbulence, noise) and of the faults")
+    p.add_argument("--timeout-frames", type=non_negative_int, default=3,
+                   help="frames the last command is held before the PID flies (0: the PID flies at the first miss)")
+    p.add_argument("--recover-frames", type=positive_int, default=5,
                    help="answers on time in a row before the controller flies again")
     p.add_argument("--no-compare", action="store_true", help="skip the in-process flight of the same route")
     p.add_argument("--out", default="runs/loop_bench", help="folder for summary.json, frames.npz, loop_bench.png")
+    p.add_argument("--overwrite", action="store_true", help="replace the results of an earlier bench in --out")
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout (messages go to stderr)")
-    return p.parse_args(argv)
+    return p
+
+
+def parse_args(argv=None) -> argparse.Namespace:
+    return build_parser().parse_args(argv)
+
+
+def bench_config(args: argparse.Namespace):
+    """The bench flight the arguments ask for (``jsbsim_env.bench.plant.BenchConfig``); ``ValueError``
+    (one line) for one that cannot be flown."""
+    from jsbsim_env.bench.link import Faults
+    from jsbsim_env.bench.plant import BenchConfig
+
+    return BenchConfig(mode=args.mode, controller=args.controller, policy=args.policy, duration_s=args.duration,
+                       baud=args.baud, faults=Faults.parse(args.faults), device=args.device, seed=args.seed,
+                       timeout_frames=args.timeout_frames, recover_frames=args.recover_frames)
 
 
 def in_process(args) -> dict:
@@ -63,21 +102,17 @@ def in_process(args) -> dict:
 
 def main(argv=None) -> int:
     args = parse_args(argv)
-    from jsbsim_env.bench.link import Faults
-    from jsbsim_env.bench.plant import BenchConfig, plot_bench, run_bench
+    from jsbsim_env.bench.plant import plot_bench, run_bench
     from jsbsim_env.task.metrics import json_ready
 
     try:
-        cfg = BenchConfig(mode=args.mode, controller=args.controller, policy=args.policy,
-                          duration_s=args.duration,
-                          baud=args.baud, faults=Faults.parse(args.faults), device=args.device, seed=args.seed,
-                          timeout_frames=args.timeout_frames, recover_frames=args.recover_frames)
+        cfg = bench_config(args)
     except ValueError as exc:
         print(f"loop_bench: {exc}", file=sys.stderr)
         return 2
     out = Path(args.out)
     try:
-        check_output_folder(out)
+        claim_output_folder(out, RESULTS, args.overwrite)
     except OutputFolderError as exc:
         print(f"loop_bench: --out: {exc}", file=sys.stderr)
         return 2
@@ -113,6 +148,8 @@ def main(argv=None) -> int:
         summary["in_process"] = {**ref, "rmse_ratio": ratio}
     summary = json_ready(summary)
     out.mkdir(parents=True, exist_ok=True)
+    if args.overwrite:
+        remove_earlier_results(out, RESULTS)
     (out / "summary.json").write_text(json.dumps(summary, indent=1))
     np.savez_compressed(out / "frames.npz", **result.frames)
     plot_bench(result, out / "loop_bench.png")
@@ -121,8 +158,9 @@ def main(argv=None) -> int:
     else:
         s = summary
         lat = s["latency_ms"]
+        latency = "/".join("-" if lat[k] is None else f"{lat[k]:.1f}" for k in ("p50", "p99", "max"))
         print(f"{s['frames']} frames, {s['mode']}, {s['controller']}: missed deadlines {s['missed_deadlines']}, "
-              f"latency p50/p99/max {lat['p50']:.1f}/{lat['p99']:.1f}/{lat['max']:.1f} ms, dropped {s['dropped_frames']}, "
+              f"latency p50/p99/max {latency} ms, dropped {s['dropped_frames']}, "
               f"CRC errors {s['crc_errors']}, failsafe take-overs {s['failsafe_takeovers']}, "
               f"ended early: {s['ended_early'] or 'no'}")
         rm = s["tracking_rmse"]
@@ -132,6 +170,9 @@ def main(argv=None) -> int:
         print(line)
         for e in s["failsafe_events"]:
             print(f"  {e['time_s']:8.2f} s  {e['event']}")
+        if s["controller_lost_at_s"] is not None:
+            print(f"the controller process died (exit code {s['controller_exit_code']}), noticed at "
+                  f"{s['controller_lost_at_s']:.2f} s: the failsafe PID flew the rest of the flight")
         print(f"written to {out}/")
     return 0
 

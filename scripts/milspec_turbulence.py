@@ -19,14 +19,14 @@ moderate and severe. Beside the named severities, this package's MIL-F-8785C sig
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 
 import numpy as np
 
 from jsbsim_env.sim import turbulence as turb
-from jsbsim_env.sim.simulation import FT_TO_M, Simulation
+from jsbsim_env.sim.simulation import ALTITUDE_RANGE_M, FT_TO_M, Simulation
+from training.runtime import ScriptParser, number_type
 
 ALTITUDES_M = (500.0, 1000.0, 2000.0, 5000.0, 10000.0, 15000.0, 20000.0)
 SEVERITIES = (1, 2, 3, 4, 5, 6, 7)
@@ -94,13 +94,15 @@ def markdown(points: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
-                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+def main(argv: list[str] | None = None) -> None:
+    parser = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
     parser.add_argument("--json", action="store_true", help="print the table as JSON")
-    parser.add_argument("--severities", type=int, nargs="+", default=list(SEVERITIES), help="MIL-F-8785C severity levels")
-    parser.add_argument("--altitudes-m", type=float, nargs="+", default=list(ALTITUDES_M), help="altitudes, m")
-    args = parser.parse_args()
+    parser.add_argument("--severities", type=number_type(int, min(SEVERITIES), max(SEVERITIES)), nargs="+",
+                        default=list(SEVERITIES), help="MIL-F-8785C severity levels")
+    parser.add_argument("--altitudes-m", type=number_type(float, *ALTITUDE_RANGE_M, unit="m", outside="the flight envelope"), nargs="+",
+                        default=list(ALTITUDES_M),
+                        help=f"altitudes, m (the envelope: {ALTITUDE_RANGE_M[0]:g}-{ALTITUDE_RANGE_M[1]:g})")
+    args = parser.parse_args(argv)
     # A seed per point: with one seed every point would draw the same noise, and share its error.
     points = [measure(s, a, seed=1 + i) for i, (s, a) in
               enumerate((s, a) for s in args.severities for a in args.altitudes_m)]

@@ -5,32 +5,30 @@ training wall-clock.
     python scripts/plot_training.py runs/sac_seed0 runs/sac_seed1 runs/sac_seed2 --out fig8.png
 
 It also prints each run's summary (``training.curves.run_summary``): training wall-clock, final
-evaluation return, and the steps to 0.9 of it and of its gain.
+evaluation return, and the steps to 0.9 of it and of its gain. An ``--out`` file that exists
+already is refused unless ``--overwrite``.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 from pathlib import Path
 
 from training.curves import load_curve, plot_curves, run_summary
-from training.runtime import OutputFolderError, check_output_folder
+from training.runtime import OutputFolderError, ScriptParser, claim_output_file, positive_int
 
 __all__ = ["load_curve", "main", "run_summary"]
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
-                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+def main(argv: list[str] | None = None) -> None:
+    parser = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
     parser.add_argument("runs", type=Path, nargs="+", help="run folders (each with progress.csv)")
     parser.add_argument("--out", type=Path, default=Path("fig8_training.png"), help="the figure to write")
-    parser.add_argument("--final-evals", type=int, default=3, help="evaluations averaged into the final return")
-    args = parser.parse_args()
-    if args.out.is_dir():
-        parser.exit(2, f"plot_training: --out: {args.out} is a folder: give the figure's file name\n")
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing --out")
+    parser.add_argument("--final-evals", type=positive_int, default=3, help="evaluations averaged into the final return")
+    args = parser.parse_args(argv)
     try:
-        check_output_folder(args.out.parent)
+        claim_output_file(args.out, args.overwrite)
     except OutputFolderError as err:
         parser.exit(2, f"plot_training: --out: {err}\n")
     print(json.dumps([run_summary(r, args.final_evals) for r in args.runs], indent=2))

@@ -6,7 +6,10 @@
     python scripts/report.py --out DIR --policy P --experiments altitudes,route_10km --controllers RL
 
 Writes DIR/report.md, a PNG per figure and DIR/metrics.json. The trained policy is the shipped
-one unless --policy is given; without either the PID parts run alone.
+one unless --policy is given; without either the PID parts run alone. A DIR that cannot be written
+to is refused before the first flight; one that holds an earlier report is refused unless
+--overwrite, which removes the earlier report's files before the new one is flown (a report lists
+every figure in its folder, so the two are never mixed).
 """
 
 from __future__ import annotations
@@ -17,13 +20,16 @@ from pathlib import Path
 
 # The experiments' and controllers' names for the help; torch and onnxruntime load when flying.
 from training.evaluation.report import CONTROLLERS, EXPERIMENTS, run_report
-from training.runtime import OutputFolderError, check_output_folder
+from training.runtime import OutputFolderError, ScriptParser, claim_output_folder, remove_earlier_results
+
+# The files a report writes to --out (an earlier report's are refused, or replaced with --overwrite).
+RESULTS = ("report.md", "metrics.json", "fig*.png")
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
-                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+def build_parser() -> argparse.ArgumentParser:
+    parser = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", type=Path, required=True, help="folder for report.md, the figures and metrics.json")
+    parser.add_argument("--overwrite", action="store_true", help="replace an earlier report in --out")
     parser.add_argument("--policy", type=Path, help="policy file (default: the shipped controller)")
     parser.add_argument("--quick", action="store_true", help="short flights, for tests")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -31,6 +37,11 @@ def main(argv: list[str] | None = None) -> int:
                         help="comma-separated subset of the experiments (default: all of them)")
     parser.add_argument("--controllers", default=",".join(CONTROLLERS),
                         help="comma-separated subset of the controllers (default: both)")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
     args = parser.parse_args(argv)
     experiments, controllers = (tuple(filter(None, v.split(","))) for v in (args.experiments, args.controllers))
     for label, given, known in (("experiment", experiments, EXPERIMENTS), ("controller", controllers, CONTROLLERS)):
@@ -38,15 +49,19 @@ def main(argv: list[str] | None = None) -> int:
         if bad or not given:
             parser.error(f"unknown or no {label} {bad}: choose from {', '.join(known)}")
     try:
-        check_output_folder(args.out)
+        claim_output_folder(args.out, RESULTS, args.overwrite)
     except OutputFolderError as err:
         print(f"report: --out: {err}", file=sys.stderr)
         return 2
     from jsbsim_env.control.policy import PolicyFileError, load_policy
 
     try:
-        if args.policy is not None and "RL" in controllers and args.policy.exists():
-            load_policy(args.policy)  # read and checked before the first flight (run_report names a missing one)
+        if args.policy is not None and "RL" in controllers:  # read and checked before the first flight
+            if not args.policy.exists():
+                raise PolicyFileError(f"policy file {args.policy} does not exist")
+            load_policy(args.policy)
+        if args.overwrite:
+            remove_earlier_results(args.out, RESULTS)
         run_report(args.out, args.policy, quick=args.quick, progress=not args.no_progress, experiments=experiments,
                    controllers=controllers)
     except PolicyFileError as err:

@@ -6,33 +6,33 @@ where it came from (run command, seed, commit, configuration, evaluation figures
 The commands and commits come from the run's ``sessions.jsonl`` (written by every training
 session); ``--command`` and ``--commit`` give the first session of a run that started before
 sessions were recorded.
+
+Replacing the shipped policy is the command's purpose: the files it writes are the package's (kept
+in git, so the policy shipped before stays in the history), and a run again with the same run
+folder writes the same files.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import shutil
 import sys
 from pathlib import Path
 
 # torch and the simulation load in main(), after the arguments are parsed.
-from training.runtime import OutputFolderError, check_output_folder
+from training.runtime import OutputFolderError, ScriptParser, check_output_folder, positive_int
 
 SHIPPED_DIR = Path(__file__).resolve().parents[1] / "jsbsim_env" / "control" / "shipped"
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
-                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    parser = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
     parser.add_argument("run_dir", type=Path)
     parser.add_argument("--command", help="the training command, for a run without sessions.jsonl")
     parser.add_argument("--commit", help="the commit it was trained at, for a run without sessions.jsonl")
-    parser.add_argument("--episodes", type=int, default=50, help="evaluation-suite episodes for the record")
-    parser.add_argument("--cores", type=int, help="CPU cores the run trained on, for a run whose sessions do not say")
+    parser.add_argument("--episodes", type=positive_int, default=50, help="evaluation-suite episodes for the record")
+    parser.add_argument("--cores", type=positive_int, help="CPU cores the run trained on, for a run whose sessions do not say")
     args = parser.parse_args(argv)
-    if args.episodes < 1:
-        parser.error(f"--episodes must be at least 1, got {args.episodes}")
     import torch
 
     from jsbsim_env.control.policy import (

@@ -9,7 +9,12 @@ end and why, RMSE per axis, error over the last 2 s, surface activity), ``sweep.
 the command and a summary: mean return and early ends per controller and condition, and where
 each controller first ended an episode early along each axis), ``command.txt`` and one PNG per
 axis (each controller's mean return and pitch RMSE against the axis, with their spread over
-episodes and the other axes). Axes and units: ``training/evaluation/sweep.py``.
+episodes and the other axes). Axes, units and the range of each: ``training/evaluation/sweep.py``.
+
+Every argument is checked before the first flight: an axis value outside its range, an axis given
+twice, a value given twice, or an ``--out`` that cannot be written is one line on stderr and exit
+code 2. An ``--out`` that holds an earlier sweep's results is refused unless ``--overwrite``, which
+replaces them (the earlier sweep's files are removed when the new one writes).
 """
 
 from __future__ import annotations
@@ -27,26 +32,50 @@ import numpy as np
 # None of these loads torch, ray or onnxruntime: those load when flying, after the arguments are parsed.
 from jsbsim_env.control.factory import CONTROLLER_NAMES
 from jsbsim_env.task.metrics import json_ready
-from training.evaluation.sweep import AXIS_UNITS, breaking_points, grid, jobs_for, parse_axis, run_local, run_ray
-from training.runtime import OutputFolderError, check_output_folder
+from training.evaluation.sweep import (
+    AXES,
+    AXIS_RANGES,
+    AXIS_UNITS,
+    breaking_points,
+    grid,
+    jobs_for,
+    parse_axes,
+    run_local,
+    run_ray,
+)
+from training.runtime import (
+    OutputFolderError,
+    ScriptParser,
+    claim_output_folder,
+    positive_int,
+    remove_earlier_results,
+)
+
+# The files a sweep writes to --out (an earlier sweep's are refused, or replaced with --overwrite).
+RESULTS = ("sweep.csv", "sweep.json", "command.txt", *(f"{axis}.png" for axis in AXES))
 
 
-def parse_args(argv=None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
-                                formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+def build_parser() -> argparse.ArgumentParser:
+    p = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
     p.add_argument("--axis", action="append", default=[], metavar="NAME=V1,V2,...",
-                   help=f"an axis and its values (repeatable): {', '.join(f'{k} ({v})' for k, v in AXIS_UNITS.items())}")
+                   help="an axis and its values (repeatable, each axis once): " + ", ".join(
+                       f"{k} {AXIS_RANGES[k].text(v)}" for k, v in AXIS_UNITS.items()))
     p.add_argument("--controllers", default="policy,pid", help="comma-separated: policy, pid")
     p.add_argument("--policy", default=None, help="policy file (.pt); the shipped policy when omitted")
-    p.add_argument("--episodes", type=int, default=10, help="seeded episodes per controller and condition")
+    p.add_argument("--episodes", type=positive_int, default=10, help="seeded episodes per controller and condition")
     p.add_argument("--out", type=Path, default=Path("runs/sweep"), help="folder for the table, JSON and plots")
+    p.add_argument("--overwrite", action="store_true", help="replace the results of an earlier sweep in --out")
     p.add_argument("--backend", choices=("local", "ray"), default="local",
                    help="local: a process pool; ray: Ray tasks (pip install '.[ray]')")
-    p.add_argument("--workers", type=int, default=1, help="processes of the local backend")
+    p.add_argument("--workers", type=positive_int, default=1, help="processes of the local backend")
     p.add_argument("--address", default=None, help="ray backend: a cluster's address ('auto': this machine's); "
                                                    "a local Ray instance when omitted")
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
-    return p.parse_args(argv)
+    return p
+
+
+def parse_args(argv=None) -> argparse.Namespace:
+    return build_parser().parse_args(argv)
 
 
 def summarise(rows: list[dict], axes: dict[str, list[float]]) -> dict:
@@ -91,20 +120,18 @@ def plot_axis(rows: list[dict], axis: str, path: Path) -> None:
 def main(argv=None) -> int:
     args = parse_args(argv)
     try:
-        axes = dict(parse_axis(a) for a in args.axis)
+        axes = parse_axes(args.axis)
         if not axes:
             raise ValueError("give at least one --axis NAME=V1,V2,...")
         controllers = [c.strip() for c in args.controllers.split(",") if c.strip()]
         bad = [c for c in controllers if c not in CONTROLLER_NAMES]
         if bad or not controllers:
             raise ValueError(f"--controllers takes policy and/or pid, got {args.controllers!r}")
-        if args.episodes < 1 or args.workers < 1:
-            raise ValueError("--episodes and --workers must be at least 1")
     except ValueError as err:
         print(f"sweep: {err}", file=sys.stderr)
         return 2
     try:
-        check_output_folder(args.out)
+        claim_output_folder(args.out, RESULTS, args.overwrite)
     except OutputFolderError as err:
         print(f"sweep: --out: {err}", file=sys.stderr)
         return 2
@@ -134,6 +161,8 @@ def main(argv=None) -> int:
         bar.close()
     wall_s = time.perf_counter() - started
     args.out.mkdir(parents=True, exist_ok=True)
+    if args.overwrite:
+        remove_earlier_results(args.out, RESULTS)
     command = shlex.join(["python", "scripts/sweep.py", *(sys.argv[1:] if argv is None else argv)])
     (args.out / "command.txt").write_text(command + "\n")
     with (args.out / "sweep.csv").open("w", newline="") as fh:

@@ -8,19 +8,20 @@ control at its limit).
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 
 from jsbsim_env.analysis.modes import LinearisationError, linear_modes
-from jsbsim_env.sim.simulation import Simulation, TrimError
+from jsbsim_env.sim.simulation import ALTITUDE_RANGE_M, EAS_RANGE_MPS, Simulation, TrimError
+from training.runtime import ScriptParser, number_type
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
-                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    parser.add_argument("--altitude-m", type=float, required=True, help="altitude above sea level, m (0-20000)")
-    parser.add_argument("--veas-mps", type=float, required=True, help="equivalent airspeed, m/s (8-12)")
+    parser = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
+    parser.add_argument("--altitude-m", type=number_type(float, *ALTITUDE_RANGE_M, unit="m", outside="the flight envelope"), required=True,
+                        help=f"altitude above sea level, m (the envelope: {ALTITUDE_RANGE_M[0]:g}-{ALTITUDE_RANGE_M[1]:g})")
+    parser.add_argument("--veas-mps", type=number_type(float, *EAS_RANGE_MPS, unit="m/s", outside="the flight envelope"), required=True,
+                        help=f"equivalent airspeed, m/s (the envelope: {EAS_RANGE_MPS[0]:g}-{EAS_RANGE_MPS[1]:g})")
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     parser.add_argument("--modes", action="store_true", help="add the linear modes from JSBSim's linearisation")
     args = parser.parse_args(argv)

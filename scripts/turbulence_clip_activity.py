@@ -11,7 +11,6 @@ the clip is counted per channel (u, v, w, p, q, r).
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 
@@ -19,6 +18,7 @@ import numpy as np
 
 from jsbsim_env.sim import turbulence as turb
 from jsbsim_env.sim.simulation import Simulation
+from training.runtime import ScriptParser, number_type, positive_float
 
 ALTITUDES_M = (500.0, 1000.0, 2000.0, 5000.0, 10000.0, 15000.0, 20000.0)
 EAS_MPS = (8.0, 10.0, 12.0)
@@ -61,14 +61,14 @@ def markdown(points: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
-                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+def main(argv: list[str] | None = None) -> None:
+    parser = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
     parser.add_argument("--json", action="store_true", help="print the table as JSON")
-    parser.add_argument("--seconds", type=float, default=5000.0, help="length of each series")
+    parser.add_argument("--seconds", type=number_type(float, INTERVAL_S, unit="s"), default=5000.0,
+                        help="length of each series, s (at least one interval)")
     parser.add_argument("--intensity", default=turb.PAPER, help="'paper' or a MIL-F-8785C severity")
-    parser.add_argument("--sigma-mps", type=float, default=0.5, help="intensity of 'paper'")
-    args = parser.parse_args()
+    parser.add_argument("--sigma-mps", type=positive_float, default=0.5, help="intensity of 'paper', m/s")
+    args = parser.parse_args(argv)
     points = activity(args.seconds, args.intensity, args.sigma_mps)
     print(json.dumps(points, indent=2) if args.json else markdown(points))
 

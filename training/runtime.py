@@ -1,17 +1,22 @@
 """What the commands share about their process: settings that make training fast on a CPU (torch
-threads, the memory allocator), TorchRL's log lines, and the check of an output folder before
-any work is done. Nothing here imports torch at module level, so that a command can parse its
-arguments (and refuse bad ones) before loading it."""
+threads, the memory allocator), TorchRL's log lines, their argument parser and number types (a
+value out of range is refused in one line before any work), and the check of an output folder
+before any work is done (results of an earlier run are never replaced silently). Nothing here
+imports torch at module level, so that a command can parse its arguments (and refuse bad ones)
+before loading it."""
 
 from __future__ import annotations
 
+import argparse
 import ctypes
 import logging
+import math
 import os
 import re
 import sys
 import tempfile
 import warnings
+from collections.abc import Iterable
 from pathlib import Path
 
 # glibc's mallopt parameters (malloc.h).
@@ -130,4 +135,137 @@ def check_output_folder(path: Path | str) -> Path:
     except OSError as err:
         what = "write to the folder" if existing == path else "create the folder"
         raise OutputFolderError(f"cannot {what} {path}: {err.strerror or err}") from None
+    return path
+
+
+# ---------------------------------------------------------------------------------- the commands' arguments
+class ScriptParser(argparse.ArgumentParser):
+    """The argument parser of every command in ``scripts/``: options are matched whole (never by
+    prefix), ``--help`` shows each option's default, and a refused argument is one line on stderr,
+    ``NAME: --option must be ..., got ...``, with exit code 2 (``--help`` shows the usage).
+
+    ``script`` is the command's file (``__file__``): its name is the program in ``--help`` and its
+    stem opens every error line, as the commands' own messages do."""
+
+    def __init__(self, script: str | Path, description: str | None = None, **kwargs):
+        kwargs.setdefault("allow_abbrev", False)
+        kwargs.setdefault("formatter_class", argparse.ArgumentDefaultsHelpFormatter)
+        super().__init__(prog=Path(script).name, description=description, **kwargs)
+        self.command_name = Path(script).stem
+
+    def error(self, message: str):
+        # argparse says "argument --episodes: must be at least 1, got 0"; the line reads better as
+        # "--episodes must be at least 1, got 0" (the types below all say "must ...").
+        message = re.sub(r"^argument ([^:]+): (?=must )", r"\1 ", message)
+        message = re.sub(r"^argument ([^:]+): ", r"\1: ", message)
+        self.exit(2, f"{self.command_name}: {message}\n")
+
+
+def _number_text(value: float) -> str:
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+def number_type(kind: type = float, low: float | None = None, high: float | None = None, *,
+                low_open: bool = False, high_open: bool = False, unit: str = "", infinite_ok: bool = False,
+                outside: str | None = None, name: str | None = None):
+    """An argparse ``type=`` that takes a number of ``kind`` (int or float) in a range and refuses
+    anything else with ``ArgumentTypeError`` ("must be ..., got ..."). NaN is always refused;
+    infinity too unless ``infinite_ok`` (and the range allows it). ``low`` / ``high``: the
+    bounds (None: none), ``low_open`` / ``high_open``: bounds that are not allowed themselves.
+    ``outside`` names the range where it has a name ("the flight envelope"): a value out of it is
+    then "VALUE is outside the flight envelope, in [0, 20000] m". The returned function carries
+    ``kind``, ``low``, ``high`` and ``allowed`` (the range in words)."""
+    if kind not in (int, float):
+        raise TypeError(f"number_type takes int or float, not {kind!r}")
+    suffix = f" {unit}" if unit else ""
+    if low is not None and high is not None:
+        allowed = (f"in {'(' if low_open else '['}{_number_text(low)}, {_number_text(high)}{')' if high_open else ']'}"
+                   f"{suffix}")
+    elif low is not None:
+        if low_open:
+            allowed = "positive" if low == 0 else f"above {_number_text(low)}{suffix}"
+        else:
+            allowed = f"at least {_number_text(low)}{suffix}"
+    elif high is not None:
+        allowed = f"{'below' if high_open else 'at most'} {_number_text(high)}{suffix}"
+    else:
+        allowed = "a finite number" if not infinite_ok else "a number"
+    whole = "a whole number" if kind is int else "a number"
+
+    def convert(text: str):
+        try:
+            value = kind(text)
+        except (TypeError, ValueError):
+            raise argparse.ArgumentTypeError(f"must be {whole}, got {text!r}") from None
+        not_finite = math.isnan(value) or (math.isinf(value) and not infinite_ok)
+        too_low = low is not None and (value <= low if low_open else value < low)
+        too_high = high is not None and (value >= high if high_open else value > high)
+        if (not_finite or too_low or too_high) and outside is not None:
+            raise argparse.ArgumentTypeError(f"{text} is outside {outside}, {allowed}")
+        if not_finite:
+            bounded = low is not None and high is not None or allowed == "a finite number"
+            raise argparse.ArgumentTypeError(f"must be {allowed}{'' if bounded else ' and finite'}, got {text}")
+        if too_low or too_high:
+            raise argparse.ArgumentTypeError(f"must be {allowed}, got {text}")
+        return value
+
+    convert.__name__ = name or f"{kind.__name__}_{allowed.replace(' ', '_')}"
+    convert.kind, convert.low, convert.high, convert.allowed = kind, low, high, allowed
+    return convert
+
+
+finite_float = number_type(float, name="finite_float")
+positive_float = number_type(float, 0.0, low_open=True, name="positive_float")
+non_negative_float = number_type(float, 0.0, name="non_negative_float")
+probability = number_type(float, 0.0, 1.0, name="probability")
+positive_int = number_type(int, 1, name="positive_int")
+non_negative_int = number_type(int, 0, name="non_negative_int")
+seed_int = number_type(int, 0, name="seed")  # numpy's generators take seeds >= 0
+
+
+# ---------------------------------------------------------------------------------- results of an earlier run
+def earlier_results(folder: Path | str, results: Iterable[str]) -> list[Path]:
+    """The files in ``folder`` that a command writing ``results`` (file names or glob patterns)
+    wrote there before, sorted; none where the folder does not exist."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        return []
+    found = {p for pattern in results for p in folder.glob(pattern) if p.is_file()}
+    return sorted(found)
+
+
+def claim_output_folder(folder: Path | str, results: Iterable[str], overwrite: bool = False) -> Path:
+    """``check_output_folder``, and refuse a folder that holds results of an earlier run (a file
+    matching ``results``) unless ``overwrite``: a command never replaces results silently. Raises
+    ``OutputFolderError`` with one line; returns ``folder`` as a ``Path``. With ``overwrite`` the
+    command removes them (``remove_earlier_results``) just before it writes its own, so that the
+    folder never mixes two runs."""
+    folder = check_output_folder(folder)
+    earlier = earlier_results(folder, results)
+    if earlier and not overwrite:
+        names = ", ".join(p.name for p in earlier[:3]) + (f" and {len(earlier) - 3} more" if len(earlier) > 3 else "")
+        raise OutputFolderError(f"{folder} holds the results of an earlier run ({names}): give another folder, "
+                                "or --overwrite to replace them")
+    return folder
+
+
+def remove_earlier_results(folder: Path | str, results: Iterable[str]) -> list[Path]:
+    """Delete the earlier run's files of ``results`` in ``folder`` (a run with ``--overwrite``,
+    just before it writes its own); returns them."""
+    earlier = earlier_results(folder, results)
+    for path in earlier:
+        path.unlink()
+    return earlier
+
+
+def claim_output_file(path: Path | str, overwrite: bool = False) -> Path:
+    """The check of ``claim_output_folder`` for a command that writes one file: ``path`` is not a
+    folder, its folder can be written to, and an existing file is refused unless ``overwrite``."""
+    path = Path(path)
+    if path.is_dir():
+        raise OutputFolderError(f"{path} is a folder: give the file's name")
+    check_output_folder(path.parent)
+    if path.exists() and not overwrite:
+        raise OutputFolderError(f"{path} holds the result of an earlier run: give another file name, "
+                                "or --overwrite to replace it")
     return path

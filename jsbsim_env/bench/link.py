@@ -9,6 +9,7 @@ real port (``--device``) has its own byte time, so there the emulation adds none
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import tty
@@ -48,24 +49,35 @@ class Faults:
               "disconnect_s": "disconnect_s", "stall_at": "stall_at_s", "stall_s": "stall_s"}
 
     def __post_init__(self):
+        text_name = {field: name for name, field in self._NAMES.items()}
         for name in ("drop", "corrupt"):
             p = getattr(self, name)
-            if not 0.0 <= p <= 1.0:
+            if not 0.0 <= p <= 1.0:  # NaN fails too
                 raise ValueError(f"fault {name} is a probability in [0, 1], got {p}")
-        for name in ("delay_ms", "disconnect_s", "stall_s"):
-            if not getattr(self, name) >= 0.0:
-                raise ValueError(f"fault {name} must be >= 0, got {getattr(self, name)}")
+        for name in ("delay_ms", "disconnect_s", "stall_s", "disconnect_at_s", "stall_at_s"):
+            value = getattr(self, name)
+            if value is not None and not 0.0 <= value < math.inf:  # NaN fails too
+                raise ValueError(f"fault {text_name[name]} must be a finite number >= 0 "
+                                 f"({'ms' if name == 'delay_ms' else 's'}), got {value}")
 
     @classmethod
     def parse(cls, text: str | None) -> Faults:
-        """``"drop=0.05,corrupt=0.01,delay_ms=30,disconnect_at=20"`` -> Faults; empty -> none."""
+        """``"drop=0.05,corrupt=0.01,delay_ms=30,disconnect_at=20"`` -> Faults; empty -> none. A
+        fault that is not known, not a number, out of its range or given twice is refused
+        (``ValueError``, one line)."""
         values: dict[str, float] = {}
         for item in filter(None, (s.strip() for s in (text or "").split(","))):
-            match = re.fullmatch(r"([a-z_]+)=([-+0-9.eE]+)", item)
+            match = re.fullmatch(r"([a-z_]+)=(.*)", item)
             if not match or match.group(1) not in cls._NAMES:
                 raise ValueError(f"fault {item!r} not understood; give name=value with a name among "
                                  f"{', '.join(cls._NAMES)}")
-            values[cls._NAMES[match.group(1)]] = float(match.group(2))
+            name = cls._NAMES[match.group(1)]
+            if name in values:
+                raise ValueError(f"fault {match.group(1)} given twice")
+            try:
+                values[name] = float(match.group(2))
+            except ValueError:
+                raise ValueError(f"fault {match.group(1)} must be a number, got {match.group(2)!r}") from None
         return cls(**values)
 
     def disconnected(self, time_s: float) -> bool:

@@ -151,19 +151,38 @@ def _write_json_atomically(path: Path, data: dict) -> None:
     tmp.replace(path)
 
 
+def _positive(kind: type, infinite_ok: bool = False):
+    """An argparse type: a positive number of ``kind`` (infinity only where ``infinite_ok``)."""
+    def convert(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be a positive number, got {text!r}") from None
+        if not value > 0 or (math.isinf(value) and not infinite_ok):  # NaN fails too
+            raise argparse.ArgumentTypeError(f"must be positive{'' if infinite_ok else ' and finite'}, got {text}")
+        return value
+
+    convert.__name__ = f"positive_{kind.__name__}"
+    return convert
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--device", required=True, help="serial device path (a pty of the bench, or /dev/ttyUSB0)")
-    parser.add_argument("--baud", type=int, default=115200, help="line rate, bit/s")
+    parser.add_argument("--baud", type=_positive(int), default=115200, help="line rate, bit/s")
     parser.add_argument("--controller", default="policy", choices=("policy", "pid"))
     parser.add_argument("--policy", default=None, help="policy file (.pt); the shipped policy when omitted")
-    parser.add_argument("--rate-hz", type=float, default=25.0, help="control frame rate the controller assumes, Hz")
+    parser.add_argument("--rate-hz", type=_positive(float), default=25.0, help="control frame rate the controller assumes, Hz")
     parser.add_argument("--faults", default="", help="controller-side faults: stall_at=S,stall_s=D (flight time, s)")
     parser.add_argument("--stats", default=None, help="write the counters here (JSON) on exit")
-    parser.add_argument("--idle-timeout-s", type=float, default=math.inf,
+    parser.add_argument("--idle-timeout-s", type=_positive(float, infinite_ok=True), default=math.inf,
                         help="exit after this long without a byte, s")
     args = parser.parse_args(argv)
+    try:
+        faults = Faults.parse(args.faults)
+    except ValueError as exc:
+        parser.error(str(exc))
     import serial
 
     try:
@@ -173,8 +192,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     from jsbsim_env.control.factory import make_controller
 
-    node = ControllerNode(port, make_controller(args.controller, args.policy), args.rate_hz,
-                          Faults.parse(args.faults))
+    node = ControllerNode(port, make_controller(args.controller, args.policy), args.rate_hz, faults)
 
     def stop(signum, frame):
         node.running = False

@@ -15,6 +15,18 @@ The failsafe, in the spirit of PX4's ``COM_OF_LOSS_T`` and ArduPilot's ``FS_SHOR
 missing answer holds the last command for up to ``timeout_frames`` frames (3 = 120 ms); after
 that the plant's own gain-scheduled PID flies, until the controller has answered on time for
 ``recover_frames`` frames in a row. Every hand-over is logged with its flight time.
+
+A controller process that dies during the flight (killed, crashed) is a lost controller, not a
+failed bench: the plant stops waiting for it, the failsafe PID flies on to the end of the flight,
+and the summary records when the loss was noticed (``controller_lost_at_s``) and the process's exit
+code. Only a controller that never comes up (no first heartbeat) ends the bench with an error.
+
+In real time a frame's answer counts only if the line carries it in time, so ``BenchConfig``
+refuses a line that cannot: the frame's state burst and command at ``baud`` plus ``delay_ms`` each
+way must fit in the failsafe's hold time, ``max(1, timeout_frames)`` frames (120 ms at the
+defaults: ``delay_ms`` up to 50.8 ms at 115,200 baud). Past it every answer is late and the PID
+flies the whole flight (``delay_ms=30`` already shows that), while the start waits on heartbeats
+that come as late.
 """
 
 from __future__ import annotations
@@ -32,9 +44,18 @@ from pathlib import Path
 
 import numpy as np
 
-from jsbsim_env.bench.link import EmulatedLine, Faults, open_pty
+from jsbsim_env.bench.link import BITS_PER_BYTE, EmulatedLine, Faults, open_pty
 from jsbsim_env.bench.node import percentiles_ms
-from jsbsim_env.bench.wire import PLANT_SYSTEM_ID, decode_command, encode_state, heartbeat, is_crc_error, new_link
+from jsbsim_env.bench.wire import (
+    CONTROLLER_SYSTEM_ID,
+    PLANT_SYSTEM_ID,
+    decode_command,
+    encode_command,
+    encode_state,
+    heartbeat,
+    is_crc_error,
+    new_link,
+)
 from jsbsim_env.control.pid import PIDAttitudeController
 from jsbsim_env.missions import MissionResult, RouteConfig, RouteFlight
 from jsbsim_env.sim.core import COMMAND_HIGH, COMMAND_LOW
@@ -42,6 +63,15 @@ from jsbsim_env.sim.core import COMMAND_HIGH, COMMAND_LOW
 NETWORK, HOLD, PID = 0, 1, 2
 SOURCE_NAMES = ("network", "hold", "pid")
 COMMAND_BYTES = 40  # a HIL_ACTUATOR_CONTROLS frame is 44 bytes; shorter chunks are heartbeats or pieces
+MAX_DURATION_S = 3600.0  # an hour of flight: the route's turbulence for it is made up front (a day: 2.7 GB)
+
+
+def frame_line_bytes() -> int:
+    """Bytes a frame puts on the line: its state burst and the command answering it, every field
+    non-zero (MAVLink v2 trims trailing zeros, so this is the most a frame of the bench takes)."""
+    state = np.linspace(0.1, 1.3, 13) + np.array([10_000.0] + [0.0] * 5 + [10.0] + [0.0] * 6)
+    burst = encode_state(new_link(PLANT_SYSTEM_ID), 40_000, state, [0.1, 0.1, 10.5], 1.0, 10.0, 0.1)
+    return len(burst) + len(encode_command(new_link(CONTROLLER_SYSTEM_ID), 40_000, [1.0, -1.0, 0.5, 0.4]))
 
 
 def bench_route(duration_s: float = 60.0, seed: int = 0) -> RouteConfig:
@@ -107,12 +137,47 @@ class BenchConfig:
             raise ValueError(f"mode must be 'realtime' or 'lockstep', got {self.mode!r}")
         if self.controller not in ("policy", "pid"):
             raise ValueError(f"controller must be 'policy' or 'pid', got {self.controller!r}")
-        if not (self.duration_s > 0 and math.isfinite(self.duration_s)):
-            raise ValueError(f"duration must be positive, got {self.duration_s} s")
-        if self.baud <= 0:
-            raise ValueError(f"baud must be positive, got {self.baud}")
-        if self.mode == "lockstep" and (self.faults.delay_ms or self.faults.stall_at_s is not None):
+        if not 0.0 < self.duration_s <= MAX_DURATION_S:  # NaN fails too
+            raise ValueError(f"duration must be positive and at most {MAX_DURATION_S:g} s, got {self.duration_s} s")
+        for name, low in (("baud", 1), ("seed", 0), ("timeout_frames", 0), ("recover_frames", 1)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+                raise ValueError(f"{name} must be a whole number >= {low}, got {value!r}")
+        for name in ("rate_hz", "lockstep_wait_s", "start_timeout_s"):
+            if not 0.0 < getattr(self, name) < math.inf:
+                raise ValueError(f"{name} must be positive and finite, got {getattr(self, name)}")
+        f = self.faults
+        if self.mode == "lockstep" and (f.delay_ms or f.stall_at_s is not None):
             raise ValueError("delay_ms and stall are real-time faults: lockstep waits for every answer")
+        for name, start in (("disconnect_at", f.disconnect_at_s), ("stall_at", f.stall_at_s)):
+            if start is not None and start >= self.duration_s:
+                raise ValueError(f"fault {name}={start:g} is at or after the flight's end ({self.duration_s:g} s): "
+                                 "it would never happen")
+        if self.mode == "realtime":
+            self._check_line_time()
+
+    @property
+    def hold_s(self) -> float:
+        """How long the failsafe waits on the controller before the PID flies: ``timeout_frames``
+        frames, at least one."""
+        return max(1, self.timeout_frames) / self.rate_hz
+
+    def _check_line_time(self) -> None:
+        """Refuse a line on which no answer can arrive within the hold time (module docstring)."""
+        wire_s = frame_line_bytes() * BITS_PER_BYTE / self.baud
+        round_trip_s = wire_s + 2.0 * self.faults.delay_ms / 1000.0
+        if round_trip_s <= self.hold_s:
+            return
+        frames = max(1, self.timeout_frames)
+        budget = (f"a frame's round trip (its state burst and command at {self.baud} baud, {wire_s * 1000:.1f} ms, "
+                  f"plus delay_ms each way) must fit in the failsafe's hold time, {frames} frame"
+                  f"{'s' if frames > 1 else ''} of {1000 / self.rate_hz:g} ms = {self.hold_s * 1000:g} ms "
+                  "(--timeout-frames)")
+        if wire_s > self.hold_s:
+            raise ValueError(f"baud {self.baud} is too slow for real time: {budget}")
+        most = (self.hold_s - wire_s) / 2.0 * 1000.0
+        raise ValueError(f"fault delay_ms={self.faults.delay_ms:g} is more than the line can carry in time: {budget}; "
+                         f"the most delay_ms is {math.floor(most * 10) / 10:g}")
 
 
 @dataclass
@@ -150,11 +215,19 @@ class _ControllerProcess:
         self.stderr = tempfile.TemporaryFile()  # noqa: SIM115 - open while the process lives
         self.proc = subprocess.Popen(cmd, stderr=self.stderr, env=child_python_env(), cwd=stats_path.parent)
 
+    def alive(self) -> bool:
+        return self.proc.poll() is None
+
+    def stderr_tail(self, chars: int = 2000) -> str:
+        self.stderr.seek(0)
+        return self.stderr.read().decode(errors="replace")[-chars:]
+
     def check_alive(self) -> None:
-        if self.proc.poll() is not None:
-            self.stderr.seek(0)
-            tail = self.stderr.read().decode(errors="replace")[-2000:]
-            raise RuntimeError(f"the controller process exited with code {self.proc.returncode}:\n{tail}")
+        """Raise ``RuntimeError`` with the end of its stderr where the process has exited (before
+        the flight: a controller that never came up)."""
+        if not self.alive():
+            raise RuntimeError(f"the controller process exited with code {self.proc.returncode}:\n"
+                               f"{self.stderr_tail()}")
 
     def stop(self) -> dict:
         if self.proc.poll() is None:
@@ -181,6 +254,9 @@ class Plant:
         self.answers: dict[int, tuple[float, np.ndarray]] = {}  # frame time (us) -> (arrival, command)
         self.counts = {"crc_errors": 0, "bad_bytes": 0, "bad_commands": 0, "heartbeats": 0, "late_answers": 0}
         self.controller_seen = False
+        self.process: _ControllerProcess | None = None  # the controller process this plant started (pty only)
+        # A controller process that died during the flight: when it was noticed, its exit code, its last words.
+        self.controller_lost: dict | None = None
 
     # ------------------------------------------------------------------ receiving
     def _receive(self, line: EmulatedLine, now: float) -> None:
@@ -221,7 +297,7 @@ class Plant:
         if cfg.device is None:
             master, slave, path = open_pty()
             fd = master
-            process = _ControllerProcess(cfg, path, Path(stats_dir.name) / "controller.json")
+            process = self.process = _ControllerProcess(cfg, path, Path(stats_dir.name) / "controller.json")
         else:
             import serial
 
@@ -298,13 +374,15 @@ class Plant:
                 give_up = time.perf_counter() + cfg.lockstep_wait_s
                 errors_before = self.counts["crc_errors"] + self.counts["bad_bytes"]
                 lost_before = sum(line.counts.values())
-                while delivered and time_us not in self.answers:
+                while delivered and time_us not in self.answers and self.controller_lost is None:
+                    if process is not None and not process.alive():
+                        break  # the controller process died: nothing will answer (handled below)
                     if (self.counts["crc_errors"] + self.counts["bad_bytes"] > errors_before
                             or sum(line.counts.values()) > lost_before or time.perf_counter() > give_up):
                         break  # the answer was lost on the line, or the controller is silent
                     self._wait(fd, line, time.perf_counter() + 0.05)
-            if process is not None:
-                process.check_alive()
+            if process is not None and self.controller_lost is None and not process.alive():
+                self._lose_controller(process, flight_time, failsafe)
             # Answers to earlier frames came after their deadline: late, and of no use now (their
             # latency still counts).
             for t, (arrived, _) in self.answers.items():
@@ -340,10 +418,19 @@ class Plant:
         frames = {key: v[:k] for key, v in log.items()}
         return frames, flight.result(), failsafe, wall_s
 
+    def _lose_controller(self, process: _ControllerProcess, time_s: float, failsafe: Failsafe) -> None:
+        """The controller process died during the flight: no answer will come, so the frames no
+        longer wait for one (lockstep) and the failsafe's PID takes over after its timeout, as for
+        a silent controller, to the end of the flight."""
+        self.controller_lost = {"time_s": time_s, "exit_code": process.proc.returncode,
+                                "stderr_tail": process.stderr_tail(500)}
+        failsafe.events.append({"time_s": time_s, "event": "controller_lost"})
+
     # ------------------------------------------------------------------ the figures
     def _summarise(self, frames: dict, mission: MissionResult, failsafe: Failsafe, wall_s: float,
                    line: EmulatedLine, controller: dict) -> BenchResult:
         cfg = self.cfg
+        lost = self.controller_lost
         n = len(frames["time_s"])
         latency = frames["latency_ms"][np.isfinite(frames["latency_ms"])] / 1000.0
         answered = int(np.isfinite(frames["latency_ms"]).sum())  # on time or late
@@ -368,6 +455,9 @@ class Plant:
             "line_faults_injected": dict(line.counts),
             "failsafe_takeovers": failsafe.takeovers,
             "failsafe_events": failsafe.events,
+            # A controller process that died during the flight (None: it lived to the end).
+            "controller_lost_at_s": lost["time_s"] if lost else None,
+            "controller_exit_code": lost["exit_code"] if lost else None,
             "frames_by_source": {name: int((frames["source"] == i).sum()) for i, name in enumerate(SOURCE_NAMES)},
             "ended_early": mission.ended_early,
             "controller_compute_ms": controller.get("compute_ms"),

@@ -18,6 +18,10 @@ depend on how the jobs are spread over processes.
 | servo_rate_limit_degps | deg/s | every surface servo's rate limit (the paper: 100) |
 | altitude_m | m | start altitude, fixed |
 | eas_mps | m/s | start EAS, fixed |
+
+Each axis takes values in a range (``AXIS_RANGES``, with the reason for each bound); a value
+outside it, NaN or infinity, the same value twice on one axis, or one axis given twice is refused
+(``parse_axis``, ``parse_axes``) before anything is flown.
 """
 
 from __future__ import annotations
@@ -29,7 +33,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from jsbsim_env.sim.core import CoreConfig
+from jsbsim_env.sim.core import COMMAND_HIGH, CoreConfig
+from jsbsim_env.sim.disturbances import RANDOMISATION_GROUPS
+from jsbsim_env.sim.simulation import ALTITUDE_RANGE_M, EAS_RANGE_MPS
 from jsbsim_env.task.attitude import AttitudeTaskBatch, TaskConfig
 from training.ray_session import ray_session
 
@@ -56,8 +62,55 @@ AXIS_UNITS = {"delay_ms": "ms", "control_interval_ms": "ms", "noise_scale": "x T
               "servo_rate_limit_degps": "deg/s", "altitude_m": "m", "eas_mps": "m/s"}
 
 
+@dataclass(frozen=True)
+class AxisRange:
+    """The values an axis takes: ``low`` to ``high``, each bound itself allowed unless open."""
+
+    low: float
+    high: float
+    why: str
+    low_open: bool = False
+    high_open: bool = False
+
+    def allows(self, value: float) -> bool:
+        above = value > self.low if self.low_open else value >= self.low
+        below = value < self.high if self.high_open else value <= self.high
+        return math.isfinite(value) and above and below
+
+    def text(self, unit: str) -> str:
+        return (f"{'(' if self.low_open else '['}{self.low:g}, {self.high:g}{')' if self.high_open else ']'}"
+                f" {unit}")
+
+
+_SIM_STEP_MS = 1000.0 / CoreConfig().sim_rate_hz
+# A coefficient of Table 4 drawn at (1 - d) reaches zero at parameter_strength 1 / d.
+_STRENGTH_LIMIT = round(1.0 / max(1.0 - lo for _, (lo, _) in RANDOMISATION_GROUPS.values()), 6)
+_SMALLEST_SURFACE_TRAVEL_DEG = float(min(COMMAND_HIGH[:3]))
+# Where each axis means something; a value outside is refused before any flight.
+AXIS_RANGES: dict[str, AxisRange] = {
+    "delay_ms": AxisRange(0.0, 1000.0, "past a second, 8 times the training's longest delay, every controller "
+                                       "flies blind"),
+    "control_interval_ms": AxisRange(_SIM_STEP_MS, 1000.0, "one simulation step at 120 Hz to a second"),
+    "noise_scale": AxisRange(0.0, 100.0, "0 is no sensor noise; at 100 times Table 3 the measurements say "
+                                         "nothing"),
+    "parameter_strength": AxisRange(0.0, _STRENGTH_LIMIT, f"at {_STRENGTH_LIMIT:g} a coefficient drawn 20 % low "
+                                                          "reaches zero", high_open=True),
+    "turbulence_sigma_mps": AxisRange(0.0, 10.0, "0 is calm air; 10 m/s is the aircraft's own airspeed"),
+    "backlash_deg": AxisRange(0.0, _SMALLEST_SURFACE_TRAVEL_DEG, "at most the smallest surface travel, the rudder's"),
+    "servo_rate_limit_degps": AxisRange(0.0, 1000.0, "a servo that cannot move flies nothing; 1000 deg/s is as "
+                                                     "good as no limit", low_open=True),
+    "altitude_m": AxisRange(*ALTITUDE_RANGE_M, "the flight envelope, where a start is trimmed "
+                                               "(jsbsim_env.sim.simulation.ALTITUDE_RANGE_M)"),
+    "eas_mps": AxisRange(*EAS_RANGE_MPS, "the flight envelope, where a start is trimmed "
+                                         "(jsbsim_env.sim.simulation.EAS_RANGE_MPS)"),
+}
+
+
 def parse_axis(text: str) -> tuple[str, list[float]]:
-    """``"delay_ms=0,100,200"`` -> ("delay_ms", [0.0, 100.0, 200.0])."""
+    """``"delay_ms=0,100,200"`` -> ("delay_ms", [0.0, 100.0, 200.0]). Refuses (``ValueError``, one
+    line naming the axis, the value and the range) an unknown axis, a value that is not a number,
+    outside the axis's range (``AXIS_RANGES``; NaN and infinity are outside every range), or given
+    twice."""
     name, _, values = text.partition("=")
     name = name.strip()
     if name not in AXES:
@@ -66,9 +119,30 @@ def parse_axis(text: str) -> tuple[str, list[float]]:
         parsed = [float(v) for v in values.split(",") if v.strip()]
     except ValueError:
         raise ValueError(f"axis {name}: values must be numbers separated by commas, got {values!r}") from None
-    if not parsed or not all(math.isfinite(v) for v in parsed):
+    if not parsed:
         raise ValueError(f"axis {name} needs at least one finite value, got {values!r}")
+    allowed = AXIS_RANGES[name]
+    for v in parsed:
+        if not allowed.allows(v):
+            raise ValueError(f"axis {name}: {v:g} is outside its range {allowed.text(AXIS_UNITS[name])}: "
+                             f"{allowed.why}")
+    repeated = sorted({v for v in parsed if parsed.count(v) > 1})
+    if repeated:
+        raise ValueError(f"axis {name}: {', '.join(f'{v:g}' for v in repeated)} given more than once (each value "
+                         "is a condition; twice would fly its episodes twice)")
     return name, parsed
+
+
+def parse_axes(texts: Iterable[str]) -> dict[str, list[float]]:
+    """Several ``--axis`` texts as {axis: values}, in the order given; an axis given twice is refused
+    (the later one would otherwise replace the first)."""
+    axes: dict[str, list[float]] = {}
+    for text in texts:
+        name, values = parse_axis(text)
+        if name in axes:
+            raise ValueError(f"axis {name} given twice: give all its values in one --axis {name}=V1,V2,...")
+        axes[name] = values
+    return axes
 
 
 def grid(axes: dict[str, list[float]]) -> list[dict[str, float]]:
@@ -182,5 +256,5 @@ def breaking_points(rows: list[dict], axis: str) -> dict[str, float | None]:
     return out
 
 
-__all__ = ["AXES", "AXIS_UNITS", "Job", "breaking_points", "condition_config", "grid", "jobs_for", "parse_axis",
-           "run_job", "run_local", "run_ray"]
+__all__ = ["AXES", "AXIS_RANGES", "AXIS_UNITS", "AxisRange", "Job", "breaking_points", "condition_config", "grid",
+           "jobs_for", "parse_axes", "parse_axis", "run_job", "run_local", "run_ray"]
