@@ -16,7 +16,6 @@ a million steps take under an hour on one core: memory is what is measured here,
 
 from __future__ import annotations
 
-import argparse
 import csv
 import json
 import subprocess
@@ -27,7 +26,14 @@ from pathlib import Path
 import numpy as np
 
 from training.progress_log import read_progress
-from training.runtime import OutputFolderError, check_output_folder
+from training.runtime import (
+    OutputFolderError,
+    ScriptParser,
+    check_output_folder,
+    positive_float,
+    positive_int,
+    seed_int,
+)
 
 
 def rss_mib(pid: int) -> float | None:
@@ -125,14 +131,13 @@ def plot_memory(rows: np.ndarray, capacity: int, path: Path) -> None:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False,
-                                formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
     p.add_argument("--out", type=Path, required=True, help="soak folder (the run is OUT/run)")
-    p.add_argument("--frames", type=int, default=1_000_000, help="env steps in all")
-    p.add_argument("--capacity", type=int, default=200_000, help="replay capacity, transitions")
-    p.add_argument("--updates-per-step", type=float, default=0.02, help="gradient steps per env step")
-    p.add_argument("--sample-s", type=float, default=20.0, help="seconds between memory samples")
-    p.add_argument("--seed", type=int, default=0, help="training seed")
+    p.add_argument("--frames", type=positive_int, default=1_000_000, help="env steps in all")
+    p.add_argument("--capacity", type=positive_int, default=200_000, help="replay capacity, transitions")
+    p.add_argument("--updates-per-step", type=positive_float, default=0.02, help="gradient steps per env step")
+    p.add_argument("--sample-s", type=positive_float, default=20.0, help="seconds between memory samples")
+    p.add_argument("--seed", type=seed_int, default=0, help="training seed")
     args = p.parse_args(argv)
     if not Path("/proc/self/status").exists():
         p.error("the soak reads memory from /proc, which this system lacks")

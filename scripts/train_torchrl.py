@@ -24,7 +24,7 @@ from pathlib import Path
 # Only what the parser needs is imported here: torch and TorchRL load after the arguments are
 # parsed, so that a mistyped option is refused at once.
 from training.config import TrainConfig, check_run_name
-from training.runtime import torchrl_logs_to_stderr, tune_allocator
+from training.runtime import ScriptParser, positive_int, torchrl_logs_to_stderr, tune_allocator
 
 # Exit codes of a run stopped by a signal, as a shell reports them (128 + signal number).
 _SIGNAL_EXIT = {"SIGINT": 130, "SIGTERM": 143}
@@ -35,7 +35,7 @@ def main(argv: list[str] | None = None) -> int:
     # a resume can tell which settings were given).
     # allow_abbrev=False: an option is matched whole, never by prefix (``--env.num_env`` is an error,
     # not ``--env.num_envs``).
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False)
+    parser = ScriptParser(__file__, description=__doc__.split("\n\n")[0], formatter_class=argparse.HelpFormatter)
     parser.add_argument("--resume", type=Path, metavar="RUN_DIR",
                         help="continue the run in this folder from its last checkpoint")
     parser.add_argument("--run-name", help="the run's folder under --log.run_root: one plain name; a folder that "
@@ -46,7 +46,7 @@ def main(argv: list[str] | None = None) -> int:
                                         "<run-name>_seed<N>; the same command again resumes them (default: one run)")
     parser.add_argument("--backend", choices=("local", "ray"), default="local",
                         help="with --seeds: local processes, or Ray tasks (pip install '.[ray]') (default: local)")
-    parser.add_argument("--workers", type=int, default=1, help="with --seeds --backend local: processes (default: 1)")
+    parser.add_argument("--workers", type=positive_int, default=1, help="with --seeds --backend local: processes (default: 1)")
     parser.add_argument("--address", help="with --backend ray: a Ray cluster's address ('auto': this machine's; "
                                           "default: a local Ray instance)")
     TrainConfig.add_arguments(parser)
@@ -59,8 +59,6 @@ def main(argv: list[str] | None = None) -> int:
             raise ValueError("--run-name is not used with --resume: the run goes on in its own folder")
         if args.run_name is not None:
             check_run_name(args.run_name)
-        if args.workers < 1:
-            raise ValueError(f"--workers must be at least 1, got {args.workers}")
     except ValueError as err:
         print(f"train_torchrl: {err}", file=sys.stderr)
         return 2

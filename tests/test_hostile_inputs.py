@@ -73,18 +73,6 @@ def _bench_config(parser: argparse.ArgumentParser, argv: list[str]) -> None:
 LATER_CHECKS = {"train_torchrl": _train_config, "loop_bench": _bench_config}
 
 
-def _pending(name: str, action: argparse.Action, value: str) -> str | None:
-    """Why a case of a command outside this change still fails (xfail, not strict, until it passes)."""
-    option = action.option_strings[-1]
-    if name == "train_torchrl" and (option == "--workers" or (action.type is int and value in ("nan", "inf"))):
-        # Its parser is a plain ArgumentParser (argparse's usage block comes before the error line) and its
-        # own --workers is not checked; training.runtime.ScriptParser and positive_int would do both.
-        return "config validation in progress"
-    if name == "soak_train" and value not in ACCEPTED.get((name, option), set()):
-        return "scripts/soak_train.py's options are not checked yet (training.runtime's number types would)"
-    return None
-
-
 class _Captured(Exception):
     pass
 
@@ -122,9 +110,7 @@ def _cases():
             if _is_numeric(action):
                 for value in HOSTILE:
                     option = action.option_strings[-1]
-                    why = _pending(script.stem, action, value)
-                    marks = [pytest.mark.xfail(reason=why, strict=False)] if why else []
-                    yield pytest.param(script.stem, option, value, id=f"{script.stem} {option} {value}", marks=marks)
+                    yield pytest.param(script.stem, option, value, id=f"{script.stem} {option} {value}")
 
 
 CASES = list(_cases())
