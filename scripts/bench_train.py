@@ -38,11 +38,14 @@ def main(argv: list[str] | None = None) -> int:
     from training.sac_reference import SACLossReference
     from training.trainer import Trainer
 
-    config = TrainConfig(device=args.device, threads=args.threads)
-    config.buffer.capacity = 20_000
-    config.log.progress = False
     with tempfile.TemporaryDirectory() as tmp:
-        trainer = Trainer(config, tmp)
+        try:  # a device that is not here, or settings out of range: one line
+            config = TrainConfig(device=args.device, threads=args.threads)
+            config.buffer.capacity = 20_000
+            config.log.progress = False
+            trainer = Trainer(config, tmp)
+        except ValueError as err:
+            parser.exit(2, f"bench_train: {err}\n")
         env = trainer.env
         # Collection: the actor picks actions, the batched environment steps (TorchRL rollout).
         collect_rates = []
