@@ -68,6 +68,20 @@ def test_a_run_name_used_again_without_resume_is_refused_and_the_run_kept(tmp_pa
     assert len((run / "sessions.jsonl").read_text().splitlines()) == 1
 
 
+def test_a_folder_that_is_not_a_run_is_never_cleared_for_a_new_one(tmp_path, capsys, load_script, tiny_args):
+    """A run name that falls on a folder of other files (a config.json of something else, a tb/ of
+    the user's) is refused; nothing in it is removed."""
+    script = load_script("train_torchrl")
+    folder = tmp_path / "proj"
+    (folder / "tb").mkdir(parents=True)
+    (folder / "tb" / "notes.txt").write_text("mine")
+    (folder / "config.json").write_text("{}")
+    assert script.main([*tiny_args(96, seed=5), "--log.run_root", str(tmp_path), "--run-name", "proj"]) == 2
+    lines, _ = _errors(capsys)
+    assert len(lines) == 1 and "no run of this package" in lines[0] and "another --run-name" in lines[0]
+    assert (folder / "tb" / "notes.txt").read_text() == "mine" and (folder / "config.json").read_text() == "{}"
+
+
 def test_a_run_stopped_before_its_first_checkpoint_says_so_and_starts_afresh_under_its_name(
         tmp_path, capsys, load_script, tiny_args, tiny_run):
     """A kill during the first checkpoint write leaves config.json, the logs and a temporary: --resume

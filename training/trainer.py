@@ -14,6 +14,7 @@ from __future__ import annotations
 import contextlib
 import csv
 import dataclasses
+import json
 import math
 import os
 import re
@@ -179,6 +180,10 @@ class Trainer:
         stale = [name for name in LOG_FILES if (self.run_dir / name).exists()]
         if not stale:
             return
+        if not _is_run_config(self.run_dir / "config.json"):  # not a stopped run of this package: leave it alone
+            raise RunExistsError(f"{self.run_dir} holds {', '.join(stale)} but no run of this package (its config.json "
+                                 "is missing or not a training configuration): give another --run-name or "
+                                 "--log.run_root")
         with self._writing():
             for name in stale:
                 path = self.run_dir / name
@@ -534,6 +539,16 @@ def _identity(path: Path) -> tuple[int, int] | None:
     except OSError:
         return None
     return (st.st_dev, st.st_ino)
+
+
+def _is_run_config(path: Path) -> bool:
+    """Whether ``path`` is the config.json a training run of this package wrote: every setting, as
+    this version reads them (a run writes them all)."""
+    try:
+        data = json.loads(path.read_text())
+        return data == TrainConfig.from_dict(data).to_dict()
+    except (OSError, ValueError, TypeError, AttributeError):
+        return False
 
 
 def _lock_run_dir(run_dir: Path):
