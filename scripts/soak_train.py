@@ -65,11 +65,15 @@ def training_command(args, run_dir: Path) -> tuple[list[str], bool]:
     common = ["--collector.total_frames", str(args.frames), "--log.progress", "false"]
     if (run_dir / "checkpoint.pt").exists():
         return ["--resume", str(run_dir), *common], False
+    memory = args.out / "memory.csv"
+    sampled = memory.exists() and len(memory.read_text().splitlines()) > 1
+    if not run_dir.exists() and sampled:  # a soak whose run folder was removed: its results stay
+        raise OutputFolderError(f"{args.out} holds the memory samples of an earlier soak ({memory.name}) and no run "
+                                "to resume: give another --out")
     if run_dir.exists():
         _check_not_training(run_dir)
         aside = run_dir.with_name(f"{run_dir.name}.stopped-{time.strftime('%Y%m%d-%H%M%S')}")
         run_dir.rename(aside)
-        memory = args.out / "memory.csv"
         if memory.exists():
             memory.rename(aside / memory.name)
         print(f"soak: {run_dir} stopped before its first checkpoint; moved to {aside}, and the soak starts again",

@@ -453,3 +453,14 @@ def test_the_soak_moves_a_run_stopped_before_its_first_checkpoint_aside(tmp_path
     (run / "checkpoint.pt").write_bytes(b"x")
     cmd, fresh = soak.training_command(args, run)
     assert not fresh and cmd[:2] == ["--resume", str(run)]
+
+
+def test_the_soak_never_overwrites_the_samples_of_an_earlier_soak(tmp_path, load_script):
+    """A finished soak whose run folder was removed (its checkpoint is large) keeps its memory
+    samples: the same command again is refused instead of starting a new memory.csv over them."""
+    soak = load_script("soak_train")
+    args = argparse.Namespace(out=tmp_path, frames=1000, capacity=100, updates_per_step=0.02, seed=0)
+    (tmp_path / "memory.csv").write_text("wall_s,frames,rss_mib\n1,9000,500\n")
+    with pytest.raises(soak.OutputFolderError, match="earlier soak"):
+        soak.training_command(args, tmp_path / "run")
+    assert (tmp_path / "memory.csv").read_text() == "wall_s,frames,rss_mib\n1,9000,500\n"
