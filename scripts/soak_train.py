@@ -66,8 +66,7 @@ def training_command(args, run_dir: Path) -> tuple[list[str], bool]:
     if (run_dir / "checkpoint.pt").exists():
         return ["--resume", str(run_dir), *common], False
     memory = args.out / "memory.csv"
-    sampled = memory.exists() and len(memory.read_text().splitlines()) > 1
-    if not run_dir.exists() and sampled:  # a soak whose run folder was removed: its results stay
+    if not run_dir.exists() and _trained_samples(memory):  # a soak whose run folder was removed: its results stay
         raise OutputFolderError(f"{args.out} holds the memory samples of an earlier soak ({memory.name}) and no run "
                                 "to resume: give another --out")
     if run_dir.exists():
@@ -81,6 +80,16 @@ def training_command(args, run_dir: Path) -> tuple[list[str], bool]:
     return ["--seed", str(args.seed), "--log.run_root", str(args.out), "--run-name", run_dir.name,
             "--buffer.capacity", str(args.capacity), "--optim.updates_per_step", str(args.updates_per_step),
             "--log.checkpoint_every_frames", "100000", *common], True
+
+
+def _trained_samples(memory_csv: Path) -> bool:
+    """Whether a memory log holds samples taken while a run trained (steps above 0), not only those
+    of a start that failed before its first step."""
+    try:
+        rows = list(csv.DictReader(memory_csv.open()))
+    except OSError:
+        return False
+    return any(row.get("frames", "").isdigit() and int(row["frames"]) > 0 for row in rows)
 
 
 def _check_not_training(run_dir: Path) -> None:
