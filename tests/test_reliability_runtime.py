@@ -1,6 +1,7 @@
 """Bad input to the controller runtime and the environments gets one clear error naming the
 problem, before anything moves: one test per case of docs/reliability.md's table for the runtime
-and the environments (the training and script cases are in ``test_reliability.py``)."""
+and the environments (the training cases are in ``test_reliability_training.py``, the scripts' in
+``test_reliability_scripts.py``)."""
 
 from __future__ import annotations
 
@@ -286,3 +287,13 @@ def test_a_step_before_reset_says_to_reset_first():
     core = FlightCore(CoreConfig.ideal())
     with pytest.raises(RuntimeError, match=r"call reset\(\) before step\(\)"):
         core.step(np.array([0.0, 0.0, 0.0, 0.5]))
+
+
+def test_act_refuses_a_finite_measurement_too_large_for_the_network():
+    """1e39 is a finite float64, but infinite in the network's float32 window: refused, not flown."""
+    runtime = PolicyRuntime(backend="torch")
+    for index in (1, 6):  # roll, EAS
+        huge = np.array(LEVEL, dtype=float)
+        huge[index] = 1e39
+        with pytest.raises(ValueError, match="beyond"):
+            runtime.act(huge, GOAL, 0.04)

@@ -76,7 +76,7 @@ def test_sweep_refuses_a_value_given_twice_on_one_axis(sweep, tmp_path, capsys):
     ("delay_ms", "-5", "[0, 1000] ms"),
     ("noise_scale", "-1", "[0, 100] x Table 3"),
     ("servo_rate_limit_degps", "0", "(0, 1000] deg/s"),
-    ("control_interval_ms", "0", "[8.33333, 1000] ms"),
+    ("control_interval_ms", "8.33333", "[8.33333333333333, 1000] ms"),
     ("parameter_strength", "5", "[0, 5) x Table 4"),
     ("backlash_deg", "-0.5", "[0, 20] deg"),
     ("turbulence_sigma_mps", "inf", "[0, 10] m/s"),

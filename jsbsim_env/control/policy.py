@@ -44,6 +44,11 @@ GOAL_SHAPE = (len(GOAL_NAMES),)  # roll, pitch rad; EAS m/s
 ONNX_AGREEMENT_TOL = 1e-4
 
 
+# Measurements and goals beyond this are no measurements: scaled into the network's float32 window
+# (by factors up to about 6) they would overflow to infinity.
+_LARGEST_INPUT = 1e30
+
+
 class PolicyFileError(RuntimeError):
     """A policy file that cannot be read or lacks what the runtime needs."""
 
@@ -291,9 +296,11 @@ class PolicyRuntime:
             raise ValueError(_shape_error(measurement.shape, goal.shape))
         # On plain floats throughout: numpy's per-call overhead would cost more than the arithmetic.
         m, asked = measurement.tolist(), goal.tolist()
-        # One sum of plain floats is not finite if any value is not, at a fraction of np.isfinite's cost.
-        if not math.isfinite(sum(m) + sum(asked)):
-            raise ValueError(f"measurement {m} or goal {asked} is not finite")
+        # One sum of plain floats is not finite if any value is not, at a fraction of np.isfinite's cost;
+        # a finite value too large for the network's float32 would still become infinite in its window.
+        if not math.isfinite(sum(m) + sum(asked)) or max(max(m), max(asked)) > _LARGEST_INPUT \
+                or min(min(m), min(asked)) < -_LARGEST_INPUT:
+            raise ValueError(f"measurement {m} or goal {asked} is not finite, or beyond ±{_LARGEST_INPUT:g}")
         if self.stack.needs_interval:
             if dt_s is None:
                 raise ValueError("this policy flies with a surface or goal trim: give act() the control interval "

@@ -78,7 +78,8 @@ class AxisRange:
         return math.isfinite(value) and above and below
 
     def text(self, unit: str) -> str:
-        return (f"{'(' if self.low_open else '['}{self.low:g}, {self.high:g}{')' if self.high_open else ']'}"
+        # 15 significant digits: a bound such as one simulation step (8.333... ms) reads as itself
+        return (f"{'(' if self.low_open else '['}{self.low:.15g}, {self.high:.15g}{')' if self.high_open else ']'}"
                 f" {unit}")
 
 
@@ -124,7 +125,7 @@ def parse_axis(text: str) -> tuple[str, list[float]]:
     allowed = AXIS_RANGES[name]
     for v in parsed:
         if not allowed.allows(v):
-            raise ValueError(f"axis {name}: {v:g} is outside its range {allowed.text(AXIS_UNITS[name])}: "
+            raise ValueError(f"axis {name}: {v:.15g} is outside its range {allowed.text(AXIS_UNITS[name])}: "
                              f"{allowed.why}")
     repeated = sorted({v for v in parsed if parsed.count(v) > 1})
     if repeated:
