@@ -85,12 +85,9 @@ def main(argv: list[str] | None = None) -> int:
             name = args.run_name or f"sac_seed{config.seed}_{time.strftime('%Y%m%d-%H%M%S')}"
             run_dir = Path(config.log.run_root) / name
         trainer = Trainer(config, run_dir, resume=args.resume is not None)
-    except (CheckpointError, RunLockedError, RunExistsError, ValueError) as err:
-        print(f"train_torchrl: {err}", file=sys.stderr)
+    except (CheckpointError, RunLockedError, RunExistsError, RunFolderError, ValueError) as err:
+        print(f"train_torchrl: {err}", file=sys.stderr)  # refused before any training: exit 2
         return 2
-    except RunFolderError as err:
-        print(f"train_torchrl: {err}", file=sys.stderr)
-        return 1
     for note in trainer.notes:
         print(f"train_torchrl: {note}", file=sys.stderr)
     try:
