@@ -31,6 +31,8 @@ from training.runtime import (
 )
 
 SHIPPED, PID = "shipped", "PID"  # column names of --compare
+# jsbsim_env.control.factory.CONTROLLER_NAMES, spelled out: the factory loads the simulation
+CONTROLLER_NAMES = ("policy", "pid", "lqi")
 DEFAULT_EPISODES = 50
 # The files --plots receives (training.evaluation.suite.doublet_runs): an earlier evaluation's are
 # refused, or replaced with --overwrite.
@@ -67,8 +69,8 @@ class _HelpWithSuite(argparse.Action):
 def build_parser() -> argparse.ArgumentParser:
     parser = ScriptParser(__file__, description=__doc__.split("\n\n")[0], add_help=False)
     parser.add_argument("-h", "--help", action=_HelpWithSuite, help="show this help message and exit")
-    parser.add_argument("--controller", choices=("policy", "pid"), default="policy",
-                        help="the trained policy, or the gain-scheduled PID baseline")
+    parser.add_argument("--controller", choices=CONTROLLER_NAMES, default="policy",
+                        help="the trained policy, or the gain-scheduled PID or LQI baseline")
     parser.add_argument("--policy", type=Path, help="policy file (.pt); the shipped controller when omitted")
     parser.add_argument("--compare", type=Path, nargs="+", metavar="POLICY",
                         help="fly these policy files, the shipped policy and the PID on the same suite and print "
@@ -86,7 +88,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    if args.controller == "pid" and (args.policy or args.backend != "onnx"):
+    if args.controller != "policy" and (args.policy or args.backend != "onnx"):
         parser.error("--policy and --backend are for --controller policy")
     if args.compare and (args.policy or args.controller != "policy"):
         parser.error("--compare flies the shipped policy and the PID itself: give the other policies to --compare, "
@@ -146,6 +148,10 @@ def _controllers(args) -> dict[str, tuple[object, dict]]:
         return {**{str(path): policy(path) for path in args.compare}, SHIPPED: policy(None), PID: pid}
     if args.controller == "pid":
         return {PID: pid}
+    if args.controller == "lqi":
+        from jsbsim_env.control.lqi import LQIAttitudeController
+
+        return {"LQI": (LQIAttitudeController(), {"name": "gain-scheduled LQI"})}
     return {"policy": policy(args.policy)}
 
 

@@ -19,7 +19,7 @@ import sys
 from pathlib import Path
 
 # The experiments' and controllers' names for the help; torch and onnxruntime load when flying.
-from training.evaluation.report import CONTROLLERS, EXPERIMENTS, run_report
+from training.evaluation.report import CONTROLLERS, EXPERIMENTS, EXTRA_CONTROLLERS, run_report
 from training.runtime import OutputFolderError, ScriptParser, claim_output_folder, remove_earlier_results
 
 # The files a report writes to --out (an earlier report's are refused, or replaced with --overwrite).
@@ -36,7 +36,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--experiments", default=",".join(EXPERIMENTS),
                         help="comma-separated subset of the experiments (default: all of them)")
     parser.add_argument("--controllers", default=",".join(CONTROLLERS),
-                        help="comma-separated subset of the controllers (default: both)")
+                        help="comma-separated controllers (default: both; LQI, the LQI baseline, when named)")
     return parser
 
 
@@ -44,7 +44,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     experiments, controllers = (tuple(filter(None, v.split(","))) for v in (args.experiments, args.controllers))
-    for label, given, known in (("experiment", experiments, EXPERIMENTS), ("controller", controllers, CONTROLLERS)):
+    for label, given, known in (("experiment", experiments, EXPERIMENTS), ("controller", controllers, CONTROLLERS + EXTRA_CONTROLLERS)):
         bad = [name for name in given if name not in known]
         if bad or not given:
             parser.error(f"unknown or no {label} {bad}: choose from {', '.join(known)}")

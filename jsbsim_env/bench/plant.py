@@ -135,8 +135,8 @@ class BenchConfig:
     def __post_init__(self):
         if self.mode not in ("realtime", "lockstep"):
             raise ValueError(f"mode must be 'realtime' or 'lockstep', got {self.mode!r}")
-        if self.controller not in ("policy", "pid"):
-            raise ValueError(f"controller must be 'policy' or 'pid', got {self.controller!r}")
+        if self.controller not in ("policy", "pid", "lqi"):
+            raise ValueError(f"controller must be 'policy', 'pid' or 'lqi', got {self.controller!r}")
         if not 0.0 < self.duration_s <= MAX_DURATION_S:  # NaN fails too
             raise ValueError(f"duration must be positive and at most {MAX_DURATION_S:g} s, got {self.duration_s} s")
         for name, low in (("baud", 1), ("seed", 0), ("timeout_frames", 0), ("recover_frames", 1)):

@@ -33,7 +33,8 @@ from jsbsim_env.missions import MissionResult, RouteConfig, fly_route
 
 REPORT_SEED = 2023
 EXPERIMENTS = ("doublets", "effectiveness", "route_10km", "perturbation", "altitudes", "backlash")
-CONTROLLERS = ("PID", "RL")
+CONTROLLERS = ("PID", "RL")  # flown by default
+EXTRA_CONTROLLERS = ("LQI",)  # flown when named (the gain-scheduled LQI baseline)
 ROUTE_SEED = 11
 
 # The paper's figures (the paper's Section 5), for the tables.
@@ -74,8 +75,9 @@ class ReportPlan:
 def _controllers(policy_path) -> tuple[dict[str, Callable[[], object]], Path | None]:
     """Factories of the attitude controllers to compare, the policy only when one is available;
     and the policy file (None without one)."""
-    makers: dict[str, Callable[[], object]] = {"PID": PIDAttitudeController}
     from jsbsim_env.control.factory import make_controller
+
+    makers: dict[str, Callable[[], object]] = {"PID": PIDAttitudeController, "LQI": lambda: make_controller("lqi")}
     from jsbsim_env.control.policy import PolicyFileError, shipped_policy_path
 
     path = Path(policy_path) if policy_path is not None else shipped_policy_path()
@@ -274,12 +276,13 @@ def run_report(out_dir: Path | str, policy_path: Path | str | None = None, quick
                progress: bool = True, experiments: tuple[str, ...] = EXPERIMENTS,
                controllers: tuple[str, ...] = CONTROLLERS) -> dict:
     """Run the experiments (all of ``EXPERIMENTS`` unless fewer are named) for the controllers named
-    ("PID", "RL"), write ``report.md``,
+    ("PID", "RL" by default; "LQI" when named), write ``report.md``,
     the figures and ``metrics.json``; returns the metrics."""
-    unknown = sorted(set(experiments) - set(EXPERIMENTS)) + sorted(set(controllers) - set(CONTROLLERS))
+    known = CONTROLLERS + EXTRA_CONTROLLERS
+    unknown = sorted(set(experiments) - set(EXPERIMENTS)) + sorted(set(controllers) - set(known))
     if unknown:
         raise ValueError(f"unknown experiment or controller {unknown}: experiments are {list(EXPERIMENTS)}, "
-                         f"controllers {list(CONTROLLERS)}")
+                         f"controllers {list(known)}")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     plan = ReportPlan.quick() if quick else ReportPlan()
@@ -437,8 +440,9 @@ def render_markdown(metrics: dict, out: Path) -> str:
               "Sm aileron | Sm elevator | Sm rudder | Sm throttle |"), "|---|---|---|---|---|---|---|---|---|---|"]
     keys = ("rmse_roll_deg", "rmse_pitch_deg", "rmse_airspeed_eas_mps", "rmse_beta_deg", "smoothness_aileron",
             "smoothness_elevator", "smoothness_rudder", "smoothness_throttle")
-    for name in ("PID", "RL"):
-        lines.append(f"| {name} | paper | " + " | ".join(_fmt(PAPER_TABLE8[name][k]) for k in keys) + " |")
+    for name in ("PID", "RL", *EXTRA_CONTROLLERS):
+        if name in PAPER_TABLE8:
+            lines.append(f"| {name} | paper | " + " | ".join(_fmt(PAPER_TABLE8[name][k]) for k in keys) + " |")
         entry = metrics.get("route_10km", {}).get(name)
         if entry and "turbulent_leg" in entry:
             lines.append(f"| {name} | ours | " + " | ".join(_fmt(entry["turbulent_leg"][k]) for k in keys) + " |")
@@ -506,4 +510,4 @@ def render_markdown(metrics: dict, out: Path) -> str:
     return "\n".join(lines)
 
 
-__all__ = ["CONTROLLERS", "EXPERIMENTS", "PAPER_TABLE8", "ReportPlan", "render_markdown", "run_report", "steady_state_errors"]
+__all__ = ["CONTROLLERS", "EXPERIMENTS", "EXTRA_CONTROLLERS", "PAPER_TABLE8", "ReportPlan", "render_markdown", "run_report", "steady_state_errors"]
