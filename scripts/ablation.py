@@ -282,6 +282,15 @@ def main(argv: list[str] | None = None) -> int:
     for run in args.runs:
         if not (run / "best_policy.pt").is_file():
             parser.error(f"{run} has no best_policy.pt")
+    from training.evaluation.report import ROUTE_SEED
+    from training.evaluation.seeds import check_not_test_seed
+    from training.evaluation.suite import EVAL_EPISODE_SEED
+
+    try:  # the ablation selects candidates: never on the benchmark's frozen test set
+        check_not_test_seed(range(EVAL_EPISODE_SEED, EVAL_EPISODE_SEED + args.episodes), "ablation (suite episodes)")
+        check_not_test_seed(ROUTE_SEED, "ablation (report routes)")
+    except ValueError as err:
+        parser.exit(2, f"ablation: {err}\n")
     try:  # every folder a scorecard goes to, before the first flight
         for folder in [*(run / "scorecard" for run in args.runs), *([args.pid] if args.pid else [])]:
             check_output_folder(folder)

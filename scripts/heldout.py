@@ -67,8 +67,13 @@ def main(argv: list[str] | None = None) -> int:
     from jsbsim_env.control.factory import make_controller
     from jsbsim_env.control.pid import PIDAttitudeController
     from jsbsim_env.control.policy import PolicyFileError, load_policy
-    from training.evaluation.heldout import CHATTER_LIMIT, heldout_scores, relative_score
+    from training.evaluation.heldout import CHATTER_LIMIT, heldout_flights, heldout_scores, relative_score
 
+    try:  # --pick selects a seed: its flights are never the benchmark's frozen test set
+        heldout_flights(args.quick)
+    except ValueError as err:
+        print(f"heldout: {err}", file=sys.stderr)
+        return 2
     torch.set_num_threads(1)
     for run in args.runs:  # every policy file read and checked before the first flight
         try:

@@ -26,6 +26,7 @@ from dataclasses import replace
 from jsbsim_env.control.base import AttitudeController
 from jsbsim_env.missions import RouteConfig, fly_route
 from training.evaluation.report import ReportPlan, steady_mask, turbulent_metrics, window_metrics
+from training.evaluation.seeds import check_not_test_seed
 
 SEEDS = {"turbulent": 101, "table9": 102, "calm": 103}  # route seeds, none of them the report's ROUTE_SEED
 RMSE_KEYS = ("rmse_roll_deg", "rmse_pitch_deg", "rmse_beta_deg")
@@ -40,6 +41,8 @@ CHATTER_LIMIT = 10.0
 
 def heldout_flights(quick: bool = False) -> dict[str, RouteConfig]:
     """The held-out route flights by name; ``quick``: 30 s each, turbulence from the start, for checks."""
+    for name, seed in SEEDS.items():  # the held-out flights choose seeds: never on the frozen test set
+        check_not_test_seed(seed, f"held-out flights ({name})")
     base = RouteConfig(duration_s=30.0 if quick else 1200.0)
     turbulent_legs = (0,) if quick else (1, 2, 3)
     return {"turbulent_5km": replace(base, altitude_m=5000.0, turbulence_legs=turbulent_legs, seed=SEEDS["turbulent"]),

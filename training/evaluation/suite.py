@@ -143,6 +143,9 @@ def evaluate(controller: AttitudeController, episodes: int = 50, plot_dir: Path 
 
 def suite_episodes(controller: AttitudeController, episodes: int = 50, progress: bool = False) -> dict:
     """The suite's seeded training-style episodes alone: mean metrics and return, early ends."""
+    from training.evaluation.seeds import check_not_test_seed
+
+    check_not_test_seed(range(EVAL_EPISODE_SEED, EVAL_EPISODE_SEED + episodes), "evaluation suite")
     batch = AttitudeTaskBatch(1, TaskConfig())
     rows, early, reasons = [], 0, []
     iterator = range(episodes)

@@ -37,6 +37,7 @@ from jsbsim_env.sim.core import COMMAND_HIGH, CoreConfig
 from jsbsim_env.sim.disturbances import RANDOMISATION_GROUPS
 from jsbsim_env.sim.simulation import ALTITUDE_RANGE_M, EAS_RANGE_MPS
 from jsbsim_env.task.attitude import AttitudeTaskBatch, TaskConfig
+from training.evaluation.seeds import check_not_test_seed
 from training.ray_session import ray_session
 
 SWEEP_EPISODE_SEED = 31_000  # episode k of every condition uses seed SWEEP_EPISODE_SEED + k
@@ -198,17 +199,21 @@ def run_job(job: Job, policy: str | None = None) -> list[dict]:
 
 
 def jobs_for(controllers: Iterable[str], conditions: list[dict], episodes: int, chunk: int = 5) -> list[Job]:
-    """The work, cut into jobs of at most ``chunk`` episodes."""
+    """The work, cut into jobs of at most ``chunk`` episodes. Refuses (``ValueError``) episodes whose
+    seeds reach into the benchmark's frozen test set (``training.evaluation.seeds``)."""
+    check_not_test_seed(range(SWEEP_EPISODE_SEED, SWEEP_EPISODE_SEED + episodes), "sweep")
     return [Job(c, cond, first, min(chunk, episodes - first))
             for c in controllers for cond in conditions for first in range(0, episodes, chunk)]
 
 
-def run_local(jobs: list[Job], policy: str | None = None, workers: int = 1, progress=None) -> list[dict]:
-    """Run ``jobs`` in ``workers`` processes (1: in this one); rows in job order."""
+def run_local(jobs: list, policy: str | None = None, workers: int = 1, progress=None,
+              run: Callable[..., list[dict]] = run_job) -> list[dict]:
+    """Run ``jobs`` in ``workers`` processes (1: in this one); rows in job order. ``run(job, policy)``
+    flies one job (a module-level function, so that it pickles): ``run_job`` for the sweep's."""
     if workers <= 1:
         out = []
         for job in jobs:
-            out += run_job(job, policy)
+            out += run(job, policy)
             if progress is not None:
                 progress(1)
         return out
@@ -216,7 +221,7 @@ def run_local(jobs: list[Job], policy: str | None = None, workers: int = 1, prog
 
     results: list[list[dict]] = [[] for _ in jobs]
     with ProcessPoolExecutor(max_workers=workers) as pool:
-        futures = {pool.submit(run_job, job, policy): i for i, job in enumerate(jobs)}
+        futures = {pool.submit(run, job, policy): i for i, job in enumerate(jobs)}
         for future in as_completed(futures):
             results[futures[future]] = future.result()
             if progress is not None:
@@ -224,15 +229,15 @@ def run_local(jobs: list[Job], policy: str | None = None, workers: int = 1, prog
     return [row for rows in results for row in rows]
 
 
-def run_ray(jobs: list[Job], policy: str | None = None, address: str | None = None, progress=None,
-            info: dict | None = None) -> list[dict]:
+def run_ray(jobs: list, policy: str | None = None, address: str | None = None, progress=None,
+            info: dict | None = None, run: Callable[..., list[dict]] = run_job) -> list[dict]:
     """Run ``jobs`` as Ray tasks: a local Ray instance (started and shut down here) unless
     ``address`` names a cluster (``"auto"``: the one this machine belongs to). ``info``, where
-    given, receives the cluster's CPUs (``"cpus"``)."""
+    given, receives the cluster's CPUs (``"cpus"``). ``run``: as for ``run_local``."""
     with ray_session(address) as ray:
         if info is not None:
             info["cpus"] = float(ray.cluster_resources().get("CPU", 1.0))
-        task = ray.remote(num_cpus=1)(run_job)
+        task = ray.remote(num_cpus=1)(run)
         refs = [task.remote(job, policy) for job in jobs]
         index = {ref: i for i, ref in enumerate(refs)}
         results: list[list[dict]] = [[] for _ in jobs]

@@ -1,0 +1,150 @@
+"""Fair benchmark: controllers of the shared interface, paired, on the frozen test set.
+
+    python scripts/benchmark.py --controllers policy,pid --episodes 20 --out runs/benchmark
+    python scripts/benchmark.py --controllers policy,pid --backend ray --out runs/benchmark_ray
+    python scripts/benchmark.py --controllers pid,policy --families turbulence,steps --quick --out /tmp/bench
+
+Every controller flies the same realisations (seeds of ``training.evaluation.seeds.TEST_SEEDS``,
+which only this command flies) of each flight family (``training.evaluation.benchmark``: turbulence
+rejection on straight legs at 1, 10 and 20 km, roll and pitch steps, calm steady-state error, the
+Table 9 aircraft, the sweeps' robustness axes at a stressed value, the route's first corner), each scored on a window that
+measures one thing. For every metric and pair of controllers: the paired difference with its 95 %
+interval and the verdict (better, worse, no difference at 95 %).
+
+Writes to ``--out``: ``benchmark.md`` (a table per family), ``benchmark.json`` (the rows, the
+summary and the command), one PNG per family and ``command.txt``. ``--backend local`` and
+``--backend ray`` give identical numbers. Every argument is checked before the first flight; an
+``--out`` holding an earlier benchmark's results is refused unless ``--overwrite``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shlex
+import sys
+import time
+from pathlib import Path
+
+# None of these loads torch, ray or onnxruntime: those load when flying, after the arguments are parsed.
+from jsbsim_env.control.factory import CONTROLLER_NAMES
+from jsbsim_env.task.metrics import json_ready
+from training.evaluation.benchmark import (
+    FAMILIES,
+    BenchmarkPlan,
+    jobs_for,
+    plan_dict,
+    plot_family,
+    render_markdown,
+    run_benchmark_job,
+    summarise,
+)
+from training.evaluation.seeds import TEST_SEEDS
+from training.evaluation.sweep import run_local, run_ray
+from training.runtime import (
+    OutputFolderError,
+    ScriptParser,
+    claim_output_folder,
+    number_type,
+    positive_int,
+    remove_earlier_results,
+)
+
+RESULTS = ("benchmark.md", "benchmark.json", "command.txt", *(f"{f}.png" for f in FAMILIES))
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
+    p.add_argument("--controllers", default=",".join(CONTROLLER_NAMES),
+                   help=f"comma-separated, any of: {', '.join(CONTROLLER_NAMES)}")
+    p.add_argument("--policy", default=None, help="policy file (.pt); the shipped policy when omitted")
+    p.add_argument("--episodes", type=number_type(int, 1, len(TEST_SEEDS)), default=20,
+                   help=f"realisations per condition of each family (1 to {len(TEST_SEEDS)}, the test set's size)")
+    p.add_argument("--families", default=",".join(FAMILIES), help=f"comma-separated, any of: {', '.join(FAMILIES)}")
+    p.add_argument("--method", choices=("t", "bootstrap"), default="t", help="the paired difference's 95 %% interval")
+    p.add_argument("--out", type=Path, default=Path("runs/benchmark"), help="folder for the tables, JSON and plots")
+    p.add_argument("--overwrite", action="store_true", help="replace the results of an earlier benchmark in --out")
+    p.add_argument("--backend", choices=("local", "ray"), default="local",
+                   help="local: a process pool; ray: Ray tasks (pip install '.[ray]'); the same numbers")
+    p.add_argument("--workers", type=positive_int, default=1, help="processes of the local backend")
+    p.add_argument("--address", default=None, help="ray backend: a cluster's address ('auto': this machine's); "
+                                                   "a local Ray instance when omitted")
+    p.add_argument("--quick", action="store_true", help="short windows, for checks (not a benchmark)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout (no progress bar)")
+    return p
+
+
+def _names(text: str, allowed, what: str) -> list[str]:
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    bad = [n for n in names if n not in allowed]
+    if bad or not names:
+        raise ValueError(f"--{what} takes any of {', '.join(allowed)}, got {text!r}")
+    if len(set(names)) < len(names):
+        raise ValueError(f"--{what}: each once, got {text!r}")
+    return names
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        controllers = _names(args.controllers, CONTROLLER_NAMES, "controllers")
+        families = _names(args.families, tuple(FAMILIES), "families")
+        claim_output_folder(args.out, RESULTS, args.overwrite)
+    except OutputFolderError as err:
+        print(f"benchmark: --out: {err}", file=sys.stderr)
+        return 2
+    except ValueError as err:
+        print(f"benchmark: {err}", file=sys.stderr)
+        return 2
+    if "policy" in controllers:  # read and checked once here, not in every job
+        from jsbsim_env.control.policy import PolicyFileError, load_policy, shipped_policy_path
+
+        try:
+            load_policy(args.policy or shipped_policy_path())
+        except PolicyFileError as err:
+            print(f"benchmark: {err}", file=sys.stderr)
+            return 2
+    from tqdm import tqdm
+
+    jobs = jobs_for(families, controllers, args.episodes, args.quick)
+    bar = tqdm(total=len(jobs), desc=f"benchmark ({args.backend})", unit="flight", file=sys.stderr,
+               disable=args.no_progress or args.json)
+    started = time.perf_counter()
+    try:
+        info = {"cpus": float(args.workers)}
+        if args.backend == "ray":
+            rows = run_ray(jobs, args.policy, args.address, bar.update, info, run=run_benchmark_job)
+        else:
+            rows = run_local(jobs, args.policy, args.workers, bar.update, run=run_benchmark_job)
+    except RuntimeError as err:
+        print(f"benchmark: {err}", file=sys.stderr)
+        return 2
+    finally:
+        bar.close()
+    wall_s = time.perf_counter() - started
+    args.out.mkdir(parents=True, exist_ok=True)
+    if args.overwrite:
+        remove_earlier_results(args.out, RESULTS)
+    command = shlex.join(["python", "scripts/benchmark.py", *(sys.argv[1:] if argv is None else argv)])
+    (args.out / "command.txt").write_text(command + "\n")
+    plan = BenchmarkPlan.quick() if args.quick else BenchmarkPlan()
+    summary = summarise(rows, controllers, args.method)
+    record = {"command": command, "backend": args.backend, "cores": info["cpus"], "wall_s": wall_s,
+              "flights": len(rows), "controllers": controllers, "families": families, "episodes": args.episodes,
+              "seeds": [TEST_SEEDS.start, TEST_SEEDS.start + args.episodes - 1], "method": args.method,
+              "quick": args.quick, "plan": plan_dict(args.quick), "summary": summary}
+    (args.out / "benchmark.json").write_text(json.dumps(json_ready({**record, "rows": rows}), indent=1))
+    (args.out / "benchmark.md").write_text(render_markdown(summary, controllers, plan, args.episodes, command,
+                                                           args.method))
+    for family in families:
+        plot_family(rows, family, controllers, args.out / f"{family}.png")
+    if args.json:
+        print(json.dumps(json_ready(record), indent=1))
+    else:
+        print(f"{len(rows)} flights in {wall_s:.0f} s; written to {args.out}/")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

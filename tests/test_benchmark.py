@@ -1,0 +1,115 @@
+"""The fair benchmark: its route windows hold no corner, its step metrics, and the command's
+output, identical on the local and Ray backends."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from training.evaluation.benchmark import (
+    FAMILIES,
+    BenchJob,
+    BenchmarkPlan,
+    corner_free,
+    corner_window,
+    first_corner_s,
+    jobs_for,
+    route_config,
+    step_metrics,
+)
+from training.evaluation.seeds import TEST_SEEDS
+
+
+@pytest.mark.parametrize("quick", [True, False])
+def test_every_route_window_is_on_the_first_leg_and_the_flight_ends_before_its_corner(quick):
+    """The full-size windows, checked on the routes' own geometry: the flight ends at the window's
+    end, and the first leg's corner (where the next leg begins, one turn radius before its end) is
+    further than that flight reaches at its true airspeed."""
+    plan = BenchmarkPlan.quick() if quick else BenchmarkPlan()
+    for family in ("turbulence", "calm", "table9", "robustness"):
+        assert FAMILIES[family].window in ("leg", "calm")
+        for condition in FAMILIES[family].conditions:
+            config = route_config(BenchJob(family, condition, "pid", 0, quick), plan)
+            window = plan.calm_window_s if family == "calm" else plan.leg_window_s
+            assert config.duration_s == window[1] and config.seed == TEST_SEEDS[0]
+            assert first_corner_s(config) > window[1] * 1.02, (family, condition)
+    for condition in FAMILIES["corner"].conditions:  # the corner family's flights reach their corner
+        config = route_config(BenchJob("corner", condition, "pid", 0, quick), plan)
+        assert config.duration_s > first_corner_s(config) + plan.corner_window_s
+
+
+def test_flown_windows_contain_no_corner():
+    from jsbsim_env.control.pid import PIDAttitudeController
+    from jsbsim_env.missions import RouteConfig, fly_route
+
+    plan = BenchmarkPlan.quick()
+    config = route_config(BenchJob("turbulence", {"altitude_m": 10000.0}, "pid", 0, True), plan)
+    result = fly_route(PIDAttitudeController(), config)
+    assert corner_free(result, *plan.leg_window_s)
+    # A window over the first corner is refused: 10 km, 400 s passes the corner (about 327 s).
+    long = fly_route(PIDAttitudeController(), RouteConfig(duration_s=400.0, seed=TEST_SEEDS[0]))
+    assert corner_free(long, 20.0, 320.0) and not corner_free(long, 20.0, 400.0)
+    start, end = corner_window(long, 60.0)
+    assert abs(start - first_corner_s(long.config)) < 5.0 and end == start + 60.0
+    assert corner_window(long, 100.0) is None  # the flight ends before such a window does
+    assert corner_window(result, 5.0) is None  # no corner at all
+
+
+def test_step_metrics_of_a_known_response():
+    t = np.arange(0.0, 30.0, 0.01)
+    wn, zeta = 2.0, 0.5
+    s = np.clip(t - 10.0, 0.0, None)
+    wd = wn * math.sqrt(1 - zeta ** 2)
+    y = 5.0 * (1 - np.exp(-zeta * wn * s) * (np.cos(wd * s) + zeta / math.sqrt(1 - zeta ** 2) * np.sin(wd * s)))
+    m = step_metrics(t, y, 10.0, 5.0, 0.05, 20.0)
+    assert m["overshoot_pct"] == pytest.approx(100 * math.exp(-zeta * math.pi / math.sqrt(1 - zeta ** 2)), abs=0.05)
+    assert 0.5 < m["rise_time_s"] < 1.0 and 2.0 < m["settling_time_s"] < 4.5 and m["itae_deg_s2"] > 0
+    never = step_metrics(t, np.where(t >= 10.0, 2.5, 0.0), 10.0, 5.0, 0.05, 20.0)
+    assert never["settling_time_s"] == 20.0 and math.isnan(never["rise_time_s"])  # censored at the window
+
+
+def test_jobs_fly_only_the_test_seeds():
+    jobs = jobs_for(["steps"], ["pid", "policy"], 3)
+    assert len(jobs) == 2 * 3 * len(FAMILIES["steps"].conditions)
+    assert {TEST_SEEDS[j.realisation] for j in jobs} == set(TEST_SEEDS[:3])
+    with pytest.raises(ValueError):
+        jobs_for(["steps"], ["pid"], len(TEST_SEEDS) + 1)
+
+
+def test_the_benchmark_command_writes_its_outputs_and_ray_gives_the_same_numbers(tmp_path, capsys, load_script):
+    pytest.importorskip("ray")
+    from jsbsim_env.control.factory import CONTROLLER_NAMES
+
+    script = load_script("benchmark")
+    controllers = ",".join(c for c in CONTROLLER_NAMES if c in ("pid", "policy"))
+    common = ["--controllers", controllers, "--families", "turbulence,steps", "--episodes", "2", "--quick", "--json"]
+    assert script.main([*common, "--out", str(tmp_path / "local")]) == 0
+    local = json.loads(capsys.readouterr().out)
+    assert script.main([*common, "--out", str(tmp_path / "ray"), "--backend", "ray"]) == 0
+    capsys.readouterr()
+    rows = [json.loads((tmp_path / b / "benchmark.json").read_text())["rows"] for b in ("local", "ray")]
+    assert rows[0] == rows[1] and len(rows[0]) == 2 * 2 * (3 + 4)
+    assert all(r["corner_free"] for r in rows[0])
+    pair = "pid - policy" if controllers.startswith("pid") else "policy - pid"
+    d = local["summary"]["turbulence"]["10 km"]["pairs"][pair]["rmse_roll_deg"]
+    assert d["n"] == 2 and d["verdict"] in ("better", "worse", "no difference")
+    for name in ("benchmark.md", "command.txt", "turbulence.png", "steps.png"):
+        assert (tmp_path / "local" / name).stat().st_size > 0
+    assert "| 10 km | rmse_roll_deg |" in (tmp_path / "local" / "benchmark.md").read_text()
+    assert (tmp_path / "local" / "command.txt").read_text().startswith("python scripts/benchmark.py --controllers")
+    # Never overwritten without --overwrite, checked before the first flight.
+    assert script.main([*common, "--out", str(tmp_path / "local")]) == 2
+    assert "--overwrite" in capsys.readouterr().err
+
+
+def test_the_benchmark_command_refuses_bad_input(tmp_path, capsys, load_script):
+    script = load_script("benchmark")
+    assert script.main(["--controllers", "nonesuch", "--out", str(tmp_path)]) == 2
+    assert "--controllers takes any of" in capsys.readouterr().err
+    assert script.main(["--families", "turbulence,turbulence", "--out", str(tmp_path)]) == 2
+    assert "each once" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        script.main(["--episodes", str(len(TEST_SEEDS) + 1), "--out", str(tmp_path)])

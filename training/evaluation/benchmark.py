@@ -1,0 +1,424 @@
+"""The fair benchmark: controllers of the shared interface on the frozen test set, paired.
+
+Every flight family is scored on a window that measures one thing, and every realisation ``k``
+(seed ``TEST_SEEDS[k]``, ``training.evaluation.seeds``: the turbulence, the sensor noise, the start
+and, where drawn, the aircraft) is flown by every controller, so that two controllers differ on
+each realisation only by themselves (``training.evaluation.stats``).
+
+| family | flight | window | scores |
+|---|---|---|---|
+| ``turbulence`` | route at 1, 10, 20 km, turbulence on the first leg | 20-320 s of the first leg: no corner | RMSE roll, pitch, sideslip |
+| ``steps`` | +5 deg roll or pitch step at 10 s, 5,000 and 15,000 m, calm, sensor noise | 10-30 s: the step alone | rise time, overshoot, settling time, ITAE |
+| ``calm`` | route at 1, 10, 20 km, calm air | 60-320 s of the first leg | mean absolute roll, pitch error |
+| ``table9`` | 10 km route, calm, the paper's Table 9 positive and negative aircraft | 20-320 s of the first leg | RMSE roll, pitch, sideslip |
+| ``robustness`` | the ``turbulence`` flight at 10 km with one sweep axis stressed | 20-320 s of the first leg | RMSE roll, pitch, sideslip |
+| ``corner`` | route at 1 and 10 km, calm air | 60 s from the first leg change | RMSE roll, pitch, sideslip |
+
+A route flight starts trimmed on its first leg, heading along it; in the straight-leg families it
+ends at the window's end, before the first turn (at 10 km the first leg's corner begins at about 327 s; at 1 km and 20 km,
+where the leg is longer in time, later): ``corner_free`` checks on the flight itself that every
+sample of the window is on the first leg, and a job whose window holds a corner fails. The
+``corner`` family scores the first turn itself, from the leg change found on each flight.
+
+One job is one controller x one realisation x one condition of one family; it depends only on
+them (each job starts from an empty trim table), so the local processes and Ray give identical
+numbers (``training.evaluation.sweep.run_local`` and ``run_ray``).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import asdict, dataclass, field, replace
+
+import numpy as np
+
+from jsbsim_env.missions import MissionResult, RouteConfig
+from jsbsim_env.sim import disturbances as dist
+from jsbsim_env.sim.core import CoreConfig
+from training.evaluation.seeds import TEST_SEEDS
+from training.evaluation.stats import LOWER_IS_BETTER, paired_difference
+from training.evaluation.sweep import AXES, AXIS_UNITS
+
+
+@dataclass(frozen=True)
+class BenchmarkPlan:
+    """Windows (s) and step size (deg); ``quick`` shrinks them for checks."""
+
+    leg_window_s: tuple[float, float] = (20.0, 320.0)
+    calm_window_s: tuple[float, float] = (60.0, 320.0)
+    step_start_s: float = 10.0
+    step_window_s: float = 20.0
+    step_deg: float = 5.0
+    settle_band: float = 0.05  # settling: the response stays within 5 % of the step
+    corner_window_s: float = 60.0  # the corner family: from the first leg change on
+    quick_square_m: float | None = None  # quick: a square route of this side, its first corner in seconds
+
+    @classmethod
+    def quick(cls) -> BenchmarkPlan:
+        return cls(leg_window_s=(5.0, 25.0), calm_window_s=(10.0, 25.0), step_start_s=2.0, step_window_s=8.0,
+                   corner_window_s=15.0, quick_square_m=1200.0)
+
+
+ROUTE_METRICS = {"rmse_roll_deg": LOWER_IS_BETTER, "rmse_pitch_deg": LOWER_IS_BETTER, "rmse_beta_deg": LOWER_IS_BETTER}
+STEP_METRICS = {"rise_time_s": LOWER_IS_BETTER, "overshoot_pct": LOWER_IS_BETTER, "settling_time_s": LOWER_IS_BETTER,
+                "itae_deg_s2": LOWER_IS_BETTER}
+# The corner's path is L1's (the cross-track error at the leg change is the turn radius, the same for
+# every controller): scored is how the attitude follows the turn's demands.
+CORNER_METRICS = {"rmse_roll_deg": LOWER_IS_BETTER, "rmse_pitch_deg": LOWER_IS_BETTER, "rmse_beta_deg": LOWER_IS_BETTER}
+CALM_METRICS = {"mae_roll_deg": LOWER_IS_BETTER, "mae_pitch_deg": LOWER_IS_BETTER}
+# The sweeps' axes at one stressed value each (the training setting: delay 80-120 ms, servo 100 deg/s,
+# Table 3 noise, Table 4 spread). At 10 deg/s the servo limit shows (the PID's roll RMSE 0.164 ->
+# 0.167 deg on realisation 0); at 5 deg/s the PID ends that flight early (pitch limit).
+STRESSED = {"delay_ms": 200.0, "servo_rate_limit_degps": 10.0, "noise_scale": 4.0, "parameter_strength": 2.0}
+
+
+@dataclass(frozen=True)
+class Family:
+    name: str
+    what: str
+    window: str  # "leg", "calm" (BenchmarkPlan's route windows) or "step"
+    conditions: tuple[dict, ...]
+    metrics: dict = field(default_factory=dict)  # metric -> direction
+
+
+FAMILIES: dict[str, Family] = {f.name: f for f in (
+    Family("turbulence", "turbulence rejection on a straight leg (Dryden 0.5 m/s on each axis)", "leg", tuple({"altitude_m": h} for h in (1000.0, 10000.0, 20000.0)),
+           ROUTE_METRICS),
+    Family("steps", "a +5 deg step of roll or pitch (the other held at 0), calm air, sensor noise",
+           "step", tuple({"channel": c, "altitude_m": h}
+                                                                 for c in ("roll", "pitch") for h in (5000.0, 15000.0)),
+           STEP_METRICS),
+    Family("calm", "steady-state error in calm air on a straight leg", "calm",
+           tuple({"altitude_m": h} for h in (1000.0, 10000.0, 20000.0)), CALM_METRICS),
+    Family("table9", "the paper's Table 9 aircraft, calm air, on a straight leg at 10 km",
+           "leg", tuple({"parameters": p} for p in ("positive", "negative")),
+           ROUTE_METRICS),
+    Family("robustness", "the turbulence flight at 10 km with one sweep axis at a stressed value",
+           "leg", tuple({"axis": a, "value": v} for a, v in STRESSED.items()),
+           ROUTE_METRICS),
+    Family("corner", "the route's first corner (L1's roll demand to its limit and back), calm air, sensor noise",
+           "corner", tuple({"altitude_m": h} for h in (1000.0, 10000.0)), CORNER_METRICS),
+)}
+
+
+def condition_label(condition: dict) -> str:
+    if "axis" in condition:
+        return f"{condition['axis']}={condition['value']:g} {AXIS_UNITS[condition['axis']]}"
+    parts = []
+    for k, v in condition.items():
+        parts.append(f"{v / 1000:g} km" if k == "altitude_m" else str(v))
+    return " ".join(parts)
+
+
+@dataclass(frozen=True)
+class StressedRoute(RouteConfig):
+    """A route whose flight core has sweep axes applied (``training.evaluation.sweep.AXES``)."""
+
+    stress: tuple[tuple[str, float], ...] = ()
+
+    def core_config(self) -> CoreConfig:
+        core = super().core_config()
+        for name, value in self.stress:
+            core = AXES[name](core, float(value))
+        return core
+
+
+@dataclass(frozen=True)
+class BenchJob:
+    """One controller x one realisation x one condition of one family."""
+
+    family: str
+    condition: dict
+    controller: str
+    realisation: int
+    quick: bool = False
+
+
+def seed_of(realisation: int) -> int:
+    return TEST_SEEDS[realisation]
+
+
+def route_config(job: BenchJob, plan: BenchmarkPlan) -> RouteConfig:
+    """The route flight of a route family's job: it ends at the window's end, on the first leg."""
+    c, seed = job.condition, seed_of(job.realisation)
+    end = (plan.calm_window_s if job.family == "calm" else plan.leg_window_s)[1]
+    if job.family in ("turbulence", "calm"):
+        return RouteConfig(altitude_m=c["altitude_m"], duration_s=end, seed=seed,
+                           turbulence_legs=(0,) if job.family == "turbulence" else ())
+    if job.family == "table9":
+        return RouteConfig(altitude_m=10_000.0, duration_s=end, seed=seed, parameters=c["parameters"])
+    if job.family == "robustness":
+        parameters = dist.RANDOMISED if c["axis"] == "parameter_strength" else "nominal"
+        return StressedRoute(altitude_m=10_000.0, duration_s=end, seed=seed, turbulence_legs=(0,),
+                             parameters=parameters, stress=((c["axis"], float(c["value"])),))
+    if job.family == "corner":
+        base = RouteConfig(altitude_m=c["altitude_m"], seed=seed)
+        if plan.quick_square_m:
+            side = plan.quick_square_m
+            base = replace(base, waypoints_ne_m=((0.0, 0.0), (side, 0.0), (side, side), (0.0, side)))
+        return replace(base, duration_s=float(math.ceil(first_corner_s(base) + plan.corner_window_s + 30.0)))
+    raise ValueError(f"{job.family} is not a route family")
+
+
+def first_corner_s(config: RouteConfig) -> float:
+    """When the first leg ends in still air (s): the next leg begins one turn radius at the roll
+    limit before the first leg's end (``jsbsim_env.missions.RouteFlight.demand``), flown at the true
+    airspeed of the route's EAS in the standard atmosphere."""
+    from jsbsim_env.control.l1 import G_MPS2
+    from jsbsim_env.missions import standard_density_kg_m3
+
+    wp = config.waypoints()
+    tas = config.eas_mps * math.sqrt(1.225 / standard_density_kg_m3(config.altitude_m))
+    radius = tas ** 2 / (G_MPS2 * math.tan(config.l1.roll_limit_rad))
+    return float((np.hypot(*(wp[1] - wp[0])) - radius) / tas)
+
+
+def corner_window(result: MissionResult, length_s: float) -> tuple[float, float] | None:
+    """The corner family's window: from the first leg change for ``length_s``; None where the flight
+    has no leg change, ends before the window does, or changes leg twice in it."""
+    t, leg = result.arrays["time_s"], result.arrays["leg"]
+    changes = np.flatnonzero(np.diff(leg) != 0)
+    if changes.size == 0:
+        return None
+    start = float(t[changes[0] + 1])
+    end = start + length_s
+    inside = result.window(start, end)
+    if t[-1] + 1.0 / result.config.control_rate_hz < end or np.unique(leg[inside]).size != 1:
+        return None
+    return start, end
+
+
+def corner_free(result: MissionResult, start_s: float, end_s: float) -> bool:
+    """Whether every sample of the window is on the route's first leg, which the flight starts on,
+    heading along it: no turn, and no leg change, falls in the window."""
+    legs = result.arrays["leg"][result.window(start_s, end_s)]
+    return bool(legs.size) and bool(np.all(legs == 0))
+
+
+def step_metrics(time_s: np.ndarray, response_deg: np.ndarray, step_start_s: float, step_deg: float,
+                 band: float = 0.05, window_s: float | None = None) -> dict[str, float]:
+    """Rise time (10 % to 90 % of the step), overshoot (% of the step), settling time (from the step
+    until the response stays within ``band`` of the step; the window's length where it never does)
+    and ITAE (integral of time since the step x absolute error, deg s^2) of a step from 0 to
+    ``step_deg`` at ``step_start_s``, over the samples from the step on."""
+    m = time_s >= step_start_s
+    t, y = time_s[m] - step_start_s, response_deg[m]
+    if t.size < 2:
+        return dict.fromkeys(STEP_METRICS, math.nan)
+    r = y / step_deg
+    above10, above90 = np.flatnonzero(r >= 0.1), np.flatnonzero(r >= 0.9)
+    rise = float(t[above90[0]] - t[above10[0]]) if above90.size and above10.size else math.nan
+    overshoot = float(max(0.0, r.max() - 1.0) * 100.0)
+    outside = np.flatnonzero(np.abs(r - 1.0) > band)
+    length = window_s if window_s is not None else float(t[-1])
+    if outside.size == 0:
+        settle = 0.0
+    elif outside[-1] == t.size - 1:
+        settle = length  # never settled in the window: censored at its length
+    else:
+        settle = float(t[outside[-1] + 1])
+    e = np.abs(y - step_deg)
+    dt = np.diff(t, append=t[-1] + (t[-1] - t[-2]))
+    return {"rise_time_s": rise, "overshoot_pct": overshoot, "settling_time_s": settle,
+            "itae_deg_s2": float(np.sum(t * e * dt))}
+
+
+def _fly_step(controller, job: BenchJob, plan: BenchmarkPlan) -> tuple[dict, str]:
+    from jsbsim_env.task.attitude import AttitudeTaskBatch, TaskConfig
+    from training.evaluation.suite import fly
+
+    interval = 0.04
+    end_s = plan.step_start_s + plan.step_window_s
+    core = CoreConfig(control_interval_s=(interval, interval), delay_s=(interval, interval), sensor_noise=True,
+                      noise_reversion_per_s=1.0, parameters="nominal", turbulence=False, perturb_attitude_deg=1.0,
+                      perturb_rate_degps=0.5, perturb_eas_mps=0.3, max_steps=math.ceil(end_s / interval) + 2)
+    batch = AttitudeTaskBatch(1, TaskConfig(core=core))
+    channel = 0 if job.condition["channel"] == "roll" else 1
+    step = math.radians(plan.step_deg)
+
+    def goal(time_s: float) -> np.ndarray:
+        g = np.array([0.0, 0.0, 10.0])
+        if time_s >= plan.step_start_s:
+            g[channel] = step
+        return g
+
+    rec, end = fly(controller, batch, seed=seed_of(job.realisation), steps=math.ceil(end_s / interval), goal_fn=goal,
+                   altitude_m=job.condition["altitude_m"], airspeed_eas_mps=10.0)
+    a = rec.arrays()
+    if end["terminated"]:
+        return dict.fromkeys(STEP_METRICS, math.nan), end["reason"] or "ended early"
+    response = np.degrees(a["true_state"][:, 1 + channel])
+    return step_metrics(a["time_s"], response, plan.step_start_s, plan.step_deg, plan.settle_band,
+                        plan.step_window_s), ""
+
+
+def run_benchmark_job(job: BenchJob, policy: str | None = None) -> list[dict]:
+    """Fly one job; one row: the family, condition, controller, realisation and seed, whether the
+    flight ended early, and the family's metrics (NaN where it ended before the window's end)."""
+    from jsbsim_env.control.factory import make_controller
+    from jsbsim_env.missions import fly_route
+    from jsbsim_env.sim.trim_table import TrimTable
+
+    TrimTable.forget_shared()  # the job's numbers must not depend on what this process flew before
+    plan = BenchmarkPlan.quick() if job.quick else BenchmarkPlan()
+    family = FAMILIES[job.family]
+    controller = make_controller(job.controller, policy)
+    row = {"family": job.family, "condition": condition_label(job.condition), "controller": job.controller,
+           "realisation": job.realisation, "seed": seed_of(job.realisation)}
+    if job.family == "steps":
+        metrics, ended = _fly_step(controller, job, plan)
+        return [{**row, "ended_early": ended, "corner_free": True, **metrics}]
+    config = route_config(job, plan)
+    start, end = plan.calm_window_s if job.family == "calm" else plan.leg_window_s
+    result = fly_route(controller, config)
+    ended = result.ended_early or ""
+    if ended:
+        return [{**row, "ended_early": ended, "corner_free": job.family != "corner",
+                 **dict.fromkeys(family.metrics, math.nan)}]
+    if job.family == "corner":
+        window = corner_window(result, plan.corner_window_s)
+        if window is None:
+            raise RuntimeError(f"corner {row['condition']}: the flight did not fly its first corner and "
+                               f"{plan.corner_window_s:g} s after it")
+        metrics = result.metrics(*window)
+        return [{**row, "ended_early": "", "corner_free": False, "window_start_s": window[0],
+                 **{k: float(metrics[k]) for k in family.metrics}}]
+    if not corner_free(result, start, end):
+        raise RuntimeError(f"{job.family} {row['condition']}: the window {start:g}-{end:g} s holds a corner")
+    metrics = result.metrics(start, end)
+    return [{**row, "ended_early": "", "corner_free": True, **{k: float(metrics[k]) for k in family.metrics}}]
+
+
+def jobs_for(families: list[str], controllers: list[str], episodes: int, quick: bool = False) -> list[BenchJob]:
+    """Every job: family x condition x realisation x controller (the controllers of one realisation
+    next to each other)."""
+    if not 1 <= episodes <= len(TEST_SEEDS):
+        raise ValueError(f"episodes must be 1 to {len(TEST_SEEDS)} (the test set's size), got {episodes}")
+    return [BenchJob(f, dict(c), ctl, k, quick) for f in families for c in FAMILIES[f].conditions
+            for k in range(episodes) for ctl in controllers]
+
+
+def summarise(rows: list[dict], controllers: list[str], method: str = "t") -> dict:
+    """Per family and condition: each controller's mean, standard deviation and count per metric,
+    its early ends, and per pair of controllers (a, b) the paired difference a - b with its 95 %
+    interval and verdict."""
+    out: dict = {}
+    for name, family in FAMILIES.items():
+        mine = [r for r in rows if r["family"] == name]
+        if not mine:
+            continue
+        per_condition = {}
+        for cond in dict.fromkeys(r["condition"] for r in mine):
+            here = [r for r in mine if r["condition"] == cond]
+            values = {c: {r["realisation"]: r for r in here if r["controller"] == c} for c in controllers}
+            realisations = sorted(set.intersection(*(set(v) for v in values.values())))
+            entry: dict = {"controllers": {}, "pairs": {}}
+            for c in controllers:
+                stats = {}
+                for metric in family.metrics:
+                    x = np.array([values[c][k][metric] for k in realisations], float)
+                    ok = x[np.isfinite(x)]
+                    stats[metric] = {"mean": float(ok.mean()) if ok.size else math.nan,
+                                     "std": float(ok.std(ddof=1)) if ok.size > 1 else math.nan, "n": int(ok.size)}
+                entry["controllers"][c] = {"metrics": stats,
+                                           "ended_early": sum(bool(values[c][k]["ended_early"]) for k in realisations)}
+            for a, b in itertools.combinations(controllers, 2):
+                entry["pairs"][f"{a} - {b}"] = {
+                    metric: paired_difference([values[a][k][metric] for k in realisations],
+                                              [values[b][k][metric] for k in realisations], direction,
+                                              method).as_dict()
+                    for metric, direction in family.metrics.items()}
+            per_condition[cond] = entry
+        out[name] = per_condition
+    return out
+
+
+def window_text(window: str, plan: BenchmarkPlan) -> str:
+    if window == "corner":
+        return (f"{plan.corner_window_s:g} s from the first leg change (the turn onto the second leg), found on "
+                "each flight (it must hold no second leg change)")
+    if window == "step":
+        return (f"{plan.step_start_s:g}-{plan.step_start_s + plan.step_window_s:g} s, from the {plan.step_deg:g} deg "
+                "step on (no other change of the demands)")
+    start, end = plan.calm_window_s if window == "calm" else plan.leg_window_s
+    return f"{start:g}-{end:g} s on the route's first leg; the flight ends at {end:g} s, before the first corner"
+
+
+def _fmt(x: float) -> str:
+    if not math.isfinite(x):
+        return "n/a"
+    return f"{x:.2e}" if x != 0.0 and abs(x) < 1e-2 else f"{x:.3f}"
+
+
+def render_markdown(summary: dict, controllers: list[str], plan: BenchmarkPlan, episodes: int, command: str,
+                    method: str) -> str:
+    lines = ["# Benchmark", "", f"`{command}`", "",
+             (f"{episodes} realisation(s) per condition, seeds {TEST_SEEDS.start} to {TEST_SEEDS.start + episodes - 1} "
+             f"of the frozen test set; paired differences with their 95 % interval ({method}); the verdict is for the "
+             "first controller of the pair, lower being better for every metric here. Cells: mean ± standard "
+             "deviation over the realisations."), "",
+             (f"Windows: route families {plan.leg_window_s[0]:g}-{plan.leg_window_s[1]:g} s of the first leg "
+             f"(calm: {plan.calm_window_s[0]:g}-{plan.calm_window_s[1]:g} s); steps {plan.step_deg:g} deg at "
+             f"{plan.step_start_s:g} s, scored for {plan.step_window_s:g} s."), ""]
+    pairs = [f"{a} - {b}" for a, b in itertools.combinations(controllers, 2)]
+    for name, per_condition in summary.items():
+        family = FAMILIES[name]
+        lines += [f"## {name}: {family.what}", "", f"Window: {window_text(family.window, plan)}.", ""]
+        head = ["condition", "metric", *controllers, *(f"{p} [95 %], verdict" for p in pairs)]
+        lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+        for cond, entry in per_condition.items():
+            for metric in family.metrics:
+                cells = [cond, metric]
+                for c in controllers:
+                    s = entry["controllers"][c]["metrics"][metric]
+                    early = entry["controllers"][c]["ended_early"]
+                    cells.append(f"{_fmt(s['mean'])} ± {_fmt(s['std'])}" + (f" ({early} ended early)" if early else ""))
+                for p in pairs:
+                    d = entry["pairs"][p][metric]
+                    cells.append(f"{_fmt(d['mean'])} [{_fmt(d['low'])}, {_fmt(d['high'])}] {d['verdict']}")
+                lines.append("| " + " | ".join(cells) + " |")
+        lines += ["", f"![{name}]({name}.png)", ""]
+    return "\n".join(lines)
+
+
+def plot_family(rows: list[dict], name: str, controllers: list[str], path) -> None:
+    """One figure per family: a panel per metric, each condition's controllers side by side, every
+    realisation a dot and the mean a bar."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    family = FAMILIES[name]
+    mine = [r for r in rows if r["family"] == name]
+    conditions = list(dict.fromkeys(r["condition"] for r in mine))
+    metrics = list(family.metrics)
+    fig, axes = plt.subplots(1, len(metrics), figsize=(4.2 * len(metrics), 3.6), squeeze=False)
+    width = 0.8 / max(len(controllers), 1)
+    for ax, metric in zip(axes[0], metrics):
+        for j, c in enumerate(controllers):
+            for i, cond in enumerate(conditions):
+                x = np.array([r[metric] for r in mine if r["condition"] == cond and r["controller"] == c], float)
+                x = x[np.isfinite(x)]
+                pos = i - 0.4 + width * (j + 0.5)
+                if x.size:
+                    ax.bar(pos, x.mean(), width * 0.9, color=f"C{j}", alpha=0.35, label=c if i == 0 else None)
+                    ax.plot(np.full(x.size, pos), x, ".", color=f"C{j}", ms=4)
+        ax.set_xticks(range(len(conditions)), conditions, rotation=20, fontsize=8)
+        ax.set_title(metric, fontsize=9)
+        ax.grid(alpha=0.3, axis="y")
+    axes[0][0].legend(fontsize=8)
+    fig.suptitle(f"{name}: {family.what}", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def plan_dict(quick: bool) -> dict:
+    return asdict(BenchmarkPlan.quick() if quick else BenchmarkPlan())
+
+
+__all__ = ["FAMILIES", "BenchJob", "BenchmarkPlan", "StressedRoute", "condition_label", "corner_free", "corner_window",
+           "first_corner_s", "jobs_for",
+           "plan_dict", "render_markdown", "route_config", "run_benchmark_job", "step_metrics", "summarise"]
