@@ -45,6 +45,7 @@ ACCEPTED: dict[tuple[str, str], set[str]] = {
     ("derivatives", "--altitude-m"): {"0"},
     ("milspec_turbulence", "--altitudes-m"): {"0"},
     ("soak_train", "--seed"): {"0"},
+    ("tune_classical", "--seed"): {"0"},  # CMA-ES's seed (given to cma as seed + 1)
     # train_torchrl: TrainConfig's settings (training/config.py decides; these it may accept)
     ("train_torchrl", "--seed"): {"0"},
     ("train_torchrl", "--threads"): {"0"},

@@ -69,6 +69,16 @@ MAX_DETUNE_PASSES = 12
 STABLE_RADIUS = 0.999  # the PID tuning's bound on the spectral radius
 
 
+def bryson_sizes() -> dict[str, tuple[float, ...]]:
+    """The acceptable sizes of the shipped design (``LONG_MAX_STATE`` ...), by the gain table's key."""
+    return {"long_max_state": LONG_MAX_STATE, "long_max_input": LONG_MAX_INPUT,
+            "lat_max_state": LAT_MAX_STATE, "lat_max_input": LAT_MAX_INPUT}
+
+
+class RobustnessError(RuntimeError):
+    """An LQI design that fails the robustness cases (and is not to be detuned)."""
+
+
 def _weights(max_values) -> np.ndarray:
     return np.diag([0.0 if math.isinf(v) else 1.0 / v ** 2 for v in max_values])
 
@@ -79,18 +89,20 @@ class BlockDesign:
     the integrated (and tracked) outputs are pitch and EAS, or roll and sideslip."""
 
     def __init__(self, plant: tuning.LinearPlant, lateral: bool, dt_s: float = DT_S, r_factor: float = 1.0,
-                 feedforward: bool = True):
+                 feedforward: bool = True, sizes: dict | None = None):
+        """``sizes``: Bryson's acceptable sizes by the keys of ``bryson_sizes`` (default: those)."""
         self.lateral, self.dt_s = lateral, dt_s
+        sizes = bryson_sizes() if sizes is None else sizes
         if lateral:
             a, b, lags = plant.a_lat, plant.b_lat[:, [0, 2]], (tuning.SURFACE_LAG_S, tuning.SURFACE_LAG_S)
             self.c_y = np.eye(6)
             tracked = (1, 0)  # phi, beta
-            q, r = _weights(LAT_MAX_STATE), _weights(LAT_MAX_INPUT)
+            q, r = _weights(sizes["lat_max_state"]), _weights(sizes["lat_max_input"])
         else:
             a, b, lags = plant.a_long, plant.b_long[:, [1, 3]], (tuning.SURFACE_LAG_S, tuning.THROTTLE_LAG_S)
             self.c_y = np.diag([plant.eas_mps / plant.tas_mps, 1.0, 1.0, 1.0, 1.0, 1.0])
             tracked = (2, 0)  # theta, V_eas
-            q, r = _weights(LONG_MAX_STATE), _weights(LONG_MAX_INPUT)
+            q, r = _weights(sizes["long_max_state"]), _weights(sizes["long_max_input"])
         self.ad, self.bd = tuning.discretise(a, b, lags, dt_s)
         self.c_z = self.c_y[list(tracked)]  # tracked outputs from the 6 states (2 x 6)
         self.r_factor = r_factor
@@ -140,16 +152,20 @@ class BlockDesign:
                     self.closed(tuning.DESIGN_DELAY_STEPS + tuning.ROBUST_EXTRA_DELAY_STEPS)[0])}
 
 
-def robust_block(plant: tuning.LinearPlant, lateral: bool, dt_s: float = DT_S) -> BlockDesign:
-    """The LQI design of one block, with R raised until the robustness cases pass."""
+def robust_block(plant: tuning.LinearPlant, lateral: bool, dt_s: float = DT_S, sizes: dict | None = None,
+                 detune: bool = True) -> BlockDesign:
+    """The LQI design of one block, with R raised until the robustness cases pass; without
+    ``detune``, the plain design or ``RobustnessError``."""
     factor = 1.0
-    for _ in range(MAX_DETUNE_PASSES + 1):
-        design = BlockDesign(plant, lateral, dt_s, r_factor=factor)
+    for _ in range(MAX_DETUNE_PASSES + 1 if detune else 1):
+        design = BlockDesign(plant, lateral, dt_s, r_factor=factor, sizes=sizes)
         if max(design.radii().values()) < STABLE_RADIUS:
             return design
         factor *= DETUNE_FACTOR
-    raise RuntimeError(f"LQI design at {plant.altitude_m:g} m ({'lateral' if lateral else 'longitudinal'}) "
-                       "meets the robustness cases at no R tried")
+    block = f"LQI design at {plant.altitude_m:g} m ({'lateral' if lateral else 'longitudinal'})"
+    if not detune:
+        raise RobustnessError(f"{block} fails the robustness cases (gain x2, +2 delay steps) with its R (not detuned)")
+    raise RobustnessError(f"{block} meets the robustness cases at no R tried")
 
 
 # Names of the stored columns, in the order update() reads them.
@@ -159,11 +175,14 @@ GAIN_COLUMNS = (
     + ["elevator_trim_deg", "throttle_trim", "pitch_trim_deg", "alpha_trim_deg"])
 
 
-def design_point(sim: Simulation, altitude_m: float, eas_mps: float = DESIGN_EAS_MPS) -> dict:
-    """Both blocks at one flight condition: a row of the gain table, with the margins verified."""
+def design_point(sim: Simulation, altitude_m: float, eas_mps: float = DESIGN_EAS_MPS, sizes: dict | None = None,
+                 detune: bool = True) -> dict:
+    """Both blocks at one flight condition: a row of the gain table, with the margins verified
+    (``sizes`` and ``detune`` as ``robust_block``'s)."""
     plant = tuning.LinearPlant.at(sim, altitude_m, eas_mps)
     trim = sim.trim(altitude_m, eas_mps)
-    long_d, lat_d = robust_block(plant, lateral=False), robust_block(plant, lateral=True)
+    long_d = robust_block(plant, lateral=False, sizes=sizes, detune=detune)
+    lat_d = robust_block(plant, lateral=True, sizes=sizes, detune=detune)
     row = {"altitude_m": float(altitude_m)}
     for prefix, d in (("long", long_d), ("lat", lat_d)):
         row.update({f"{prefix}_k_{i}{j}": float(d.k_y[i, j] if j < 6 else d.k[i, j]) for i in range(2) for j in range(10)})
@@ -175,17 +194,23 @@ def design_point(sim: Simulation, altitude_m: float, eas_mps: float = DESIGN_EAS
     return row
 
 
-def write_gain_table(path: Path = GAINS_PATH, altitudes_m=DESIGN_ALTITUDES_M, progress=None) -> dict:
-    """Design at every altitude and write the table as JSON; returns it."""
-    sim = Simulation()
+def gain_table(sim: Simulation, altitudes_m=DESIGN_ALTITUDES_M, progress=None, sizes: dict | None = None,
+               detune: bool = True) -> dict:
+    """The gain table (``write_gain_table``'s layout) designed at every altitude with Bryson's
+    ``sizes`` (default: ``bryson_sizes()``); ``detune`` as ``robust_block``'s."""
+    sizes = bryson_sizes() if sizes is None else sizes
     rows = []
     for h in altitudes_m:
-        rows.append(design_point(sim, h))
+        rows.append(design_point(sim, h, sizes=sizes, detune=detune))
         if progress:
             progress(rows[-1])
-    table = {"design_eas_mps": DESIGN_EAS_MPS, "control_rate_hz": tuning.CONTROL_RATE_HZ,
-             "method": "jsbsim_env.control.lqi", "long_max_state": LONG_MAX_STATE, "long_max_input": LONG_MAX_INPUT,
-             "lat_max_state": LAT_MAX_STATE, "lat_max_input": LAT_MAX_INPUT, "points": rows}
+    return {"design_eas_mps": DESIGN_EAS_MPS, "control_rate_hz": tuning.CONTROL_RATE_HZ,
+            "method": "jsbsim_env.control.lqi", **{k: tuple(v) for k, v in sizes.items()}, "points": rows}
+
+
+def write_gain_table(path: Path = GAINS_PATH, altitudes_m=DESIGN_ALTITUDES_M, progress=None) -> dict:
+    """Design at every altitude and write the table as JSON; returns it."""
+    table = gain_table(Simulation(), altitudes_m, progress)
     tmp = path.with_suffix(".tmp")
     tmp.write_text(json.dumps(table, indent=1))  # inf is written as Infinity, which json reads back
     tmp.replace(path)
@@ -198,6 +223,20 @@ class LQIGainSchedule:
     def __init__(self, path: Path | str = GAINS_PATH):
         try:
             table = json.loads(Path(path).read_text())
+        except (OSError, ValueError) as exc:
+            raise ValueError(f"LQI gain table {path} is missing or malformed: {exc}") from exc
+        self._load(table, path)
+
+    @classmethod
+    def from_table(cls, table: dict, source: str = "(in memory)") -> LQIGainSchedule:
+        """The schedule of a gain table already read (``gain_table``'s layout); ``source`` names it
+        in errors."""
+        schedule = cls.__new__(cls)
+        schedule._load(table, source)
+        return schedule
+
+    def _load(self, table: dict, path: Path | str) -> None:
+        try:
             points = table["points"]
             self.altitudes_m = np.array([p["altitude_m"] for p in points], dtype=float)
             self.values = np.array([[float(p[n]) for n in GAIN_COLUMNS] for p in points])
@@ -239,8 +278,12 @@ class LQIAttitudeController:
     """Gain-scheduled LQI with reference feedforward (module docstring); the
     ``controllers.base.AttitudeController`` interface."""
 
-    def __init__(self, schedule: LQIGainSchedule | None = None, feedforward: bool = True):
-        self.schedule = schedule or LQIGainSchedule()
+    def __init__(self, schedule: LQIGainSchedule | None = None, feedforward: bool = True,
+                 gains_path: Path | str | None = None):
+        """``schedule``, or the gain table at ``gains_path`` (a tuned one), or ``lqi_gains.json``."""
+        if schedule is not None and gains_path is not None:
+            raise ValueError("give a schedule or a gain file, not both")
+        self.schedule = schedule or LQIGainSchedule(GAINS_PATH if gains_path is None else gains_path)
         self.feedforward = feedforward
         self.reset()
 
@@ -294,5 +337,5 @@ def _integrate(state: float, increment: float, gain: float, command: float, clip
     return min(max(state + increment, -bound), bound)
 
 
-__all__ = ["GAINS_PATH", "GAIN_COLUMNS", "BlockDesign", "LQIAttitudeController", "LQIGainSchedule", "design_point",
-           "robust_block", "write_gain_table"]
+__all__ = ["GAINS_PATH", "GAIN_COLUMNS", "BlockDesign", "LQIAttitudeController", "LQIGainSchedule", "RobustnessError",
+           "bryson_sizes", "design_point", "gain_table", "robust_block", "write_gain_table"]

@@ -98,6 +98,20 @@ class GainSchedule:
     def __init__(self, path: Path | str = GAINS_PATH):
         try:
             table = json.loads(Path(path).read_text())
+        except (OSError, ValueError) as exc:
+            raise ValueError(f"PID gain table {path} is missing or malformed: {exc}") from exc
+        self._load(table, path)
+
+    @classmethod
+    def from_table(cls, table: dict, source: str = "(in memory)") -> GainSchedule:
+        """The schedule of a gain table already read (``write_gain_table``'s layout); ``source``
+        names it in errors."""
+        schedule = cls.__new__(cls)
+        schedule._load(table, source)
+        return schedule
+
+    def _load(self, table: dict, path: Path | str) -> None:
+        try:
             points = table["points"]
             names = [f.name for f in fields(DesignPoint)]
             self.altitudes_m = np.array([p["altitude_m"] for p in points], dtype=float)
@@ -138,8 +152,11 @@ class PIDAttitudeController:
     """Gain-scheduled PID on pitch, airspeed, roll and yaw (module docstring); shares the
     ``controllers.base.AttitudeController`` interface."""
 
-    def __init__(self, schedule: GainSchedule | None = None):
-        self.schedule = schedule or GainSchedule()
+    def __init__(self, schedule: GainSchedule | None = None, gains_path: Path | str | None = None):
+        """``schedule``, or the gain table at ``gains_path`` (a tuned one), or ``pid_gains.json``."""
+        if schedule is not None and gains_path is not None:
+            raise ValueError("give a schedule or a gain file, not both")
+        self.schedule = schedule or GainSchedule(GAINS_PATH if gains_path is None else gains_path)
         self.reset()
 
     def reset(self) -> None:

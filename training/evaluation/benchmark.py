@@ -7,11 +7,11 @@ each realisation only by themselves (``training.evaluation.stats``).
 
 | family | flight | window | scores |
 |---|---|---|---|
-| ``turbulence`` | route at 1, 10, 20 km, turbulence on the first leg | 20-320 s of the first leg: no corner | RMSE roll, pitch, sideslip |
+| ``turbulence`` | route at 1, 10, 20 km, turbulence on the first leg | 20-300 s of the first leg: no corner | RMSE roll, pitch, sideslip |
 | ``steps`` | +5 deg roll or pitch step at 10 s, 5,000 and 15,000 m, calm, sensor noise | 10-30 s: the step alone | rise time, overshoot, settling time, ITAE |
-| ``calm`` | route at 1, 10, 20 km, calm air | 60-320 s of the first leg | mean absolute roll, pitch error |
-| ``table9`` | 10 km route, calm, the paper's Table 9 positive and negative aircraft | 20-320 s of the first leg | RMSE roll, pitch, sideslip |
-| ``robustness`` | the ``turbulence`` flight at 10 km with one sweep axis stressed | 20-320 s of the first leg | RMSE roll, pitch, sideslip |
+| ``calm`` | route at 1, 10, 20 km, calm air | 60-300 s of the first leg | mean absolute roll, pitch error |
+| ``table9`` | 10 km route, calm, the paper's Table 9 positive and negative aircraft | 20-300 s of the first leg | RMSE roll, pitch, sideslip |
+| ``robustness`` | the ``turbulence`` flight at 10 km with one sweep axis stressed | 20-300 s of the first leg | RMSE roll, pitch, sideslip |
 | ``corner`` | route at 1 and 10 km, calm air | 60 s from the first leg change | RMSE roll, pitch, sideslip |
 
 A route flight starts trimmed on its first leg, heading along it; in the straight-leg families it
@@ -45,8 +45,8 @@ from training.evaluation.sweep import AXES, AXIS_UNITS
 class BenchmarkPlan:
     """Windows (s) and step size (deg); ``quick`` shrinks them for checks."""
 
-    leg_window_s: tuple[float, float] = (20.0, 320.0)
-    calm_window_s: tuple[float, float] = (60.0, 320.0)
+    leg_window_s: tuple[float, float] = (20.0, 300.0)
+    calm_window_s: tuple[float, float] = (60.0, 300.0)
     step_start_s: float = 10.0
     step_window_s: float = 20.0
     step_deg: float = 5.0

@@ -16,7 +16,9 @@ benchmark reports.
 | sweeps | ``sweep.SWEEP_EPISODE_SEED`` 31,000 + k |
 | training's evaluation episodes | drawn from the environment's seed ``trainer.EVAL_SEED`` |
 
-The PID tuning (``scripts/tune_pid.py``) designs on linear models and flies no seeded episode.
+The linear-model designs (``scripts/tune_pid.py``, ``scripts/tune_lqi.py``) fly no seeded
+episode; the tuning on nonlinear flights (``scripts/tune_classical.py``) flies the held-out
+flights' seeds (``heldout.SEEDS``) and refuses the test range.
 Training environments draw their episodes' seeds from the run's seed with a random generator:
 they are not a range, and are not checked here.
 """

@@ -1,0 +1,109 @@
+"""``scripts/tune_classical.py``: the PID and the LQI re-tuned by CMA-ES on the held-out flights,
+with the budget recorded, the robustness cases enforced and the frozen test seeds refused."""
+
+from __future__ import annotations
+
+import json
+import math
+import runpy
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from jsbsim_env.control import factory
+from jsbsim_env.control.lqi import GAIN_COLUMNS, LQIAttitudeController
+from jsbsim_env.control.lqi import GAINS_PATH as LQI_GAINS_PATH
+from jsbsim_env.control.pid import GAINS_PATH as PID_GAINS_PATH
+from jsbsim_env.control.pid import PIDAttitudeController
+from jsbsim_env.missions import RouteConfig, fly_route
+from training.evaluation import classical_tuning, heldout
+from training.evaluation.seeds import TEST_SEEDS
+
+SCRIPT = Path(__file__).resolve().parents[1] / "scripts" / "tune_classical.py"
+
+
+def _main(argv: list[str]) -> int:
+    return runpy.run_path(str(SCRIPT))["main"](argv)
+
+
+@pytest.mark.parametrize("controller", ["pid", "lqi"])
+def test_a_quick_tuning_writes_a_gain_file_the_controller_flies(controller, tmp_path, monkeypatch, capsys):
+    pytest.importorskip("cma")
+    out = tmp_path / f"{controller}_tuned.json"
+    assert _main(["--controller", controller, "--budget", "2", "--quick", "--out", str(out)]) == 0
+    assert f"wrote {out}" in capsys.readouterr().out
+    table = json.loads(out.read_text())
+    budget = table["tuning"]["budget"]
+    assert budget["candidate_evaluations"] == 2 and budget["flights_per_evaluation"] == len(heldout.heldout_flights())
+    assert budget["evaluations_flown"] == 2 + 2 - budget["candidates_not_robust"]
+    assert budget["wall_clock_s"] > 0 and budget["workers"] == 1 and budget["quick"] is True
+    assert {f["seed"] for f in budget["flights"].values()} == set(heldout.SEEDS.values())
+    assert table["robustness_radius"] < classical_tuning.STABLE_RADIUS
+    assert table["tuning"]["score"] <= table["tuning"]["start_score"]
+    if controller == "pid":  # the PID's start is the shipped PID, the reference itself
+        assert table["tuning"]["start_score"] == 1.0
+
+    # The controller flies it, by its class and by its factory name.
+    cls = PIDAttitudeController if controller == "pid" else LQIAttitudeController
+    result = fly_route(cls(gains_path=out), RouteConfig(altitude_m=5000.0, duration_s=5.0))
+    assert result.ended_early is None
+    monkeypatch.setitem(factory.TUNED_GAIN_FILES, f"{controller}_tuned", out)
+    assert isinstance(factory.make_controller(f"{controller}_tuned"), cls)
+    # An existing file is not replaced without --overwrite.
+    with pytest.raises(SystemExit) as exc:
+        _main(["--controller", controller, "--budget", "2", "--quick", "--out", str(out)])
+    assert exc.value.code == 2
+
+
+def test_the_start_points_are_the_shipped_tables():
+    shipped = json.loads(PID_GAINS_PATH.read_text())
+    assert classical_tuning.pid_table(shipped, np.zeros(len(classical_tuning.PID_PARAMETERS)))["points"] == \
+        shipped["points"]
+    lqi_problem = classical_tuning.Problem("lqi")
+    redesigned = json.loads(json.dumps(lqi_problem.design(lqi_problem.x0)))  # as written and read back
+    shipped_lqi = json.loads(LQI_GAINS_PATH.read_text())
+    assert [[p[c] for c in GAIN_COLUMNS] for p in redesigned["points"]] == \
+        [[p[c] for c in GAIN_COLUMNS] for p in shipped_lqi["points"]]
+    # Rate damping grows from the shipped (near zero) gain, in seconds of the attitude gain.
+    x = np.zeros(len(classical_tuning.PID_PARAMETERS))
+    x[[p.name for p in classical_tuning.PID_PARAMETERS].index("pitch_rate")] = 1.0
+    point, base = classical_tuning.pid_table(shipped, x)["points"][0], shipped["points"][0]
+    assert math.isclose(point["k_q"], base["k_q"] + classical_tuning.RATE_TAU_S * base["k_pitch"])
+
+
+def test_a_candidate_failing_robustness_scores_infinite_without_flying(monkeypatch):
+    def no_flight(*args):
+        raise AssertionError("a candidate that fails the robustness cases is not flown")
+
+    monkeypatch.setattr(classical_tuning, "fly_table", no_flight)
+    problem = classical_tuning.Problem("pid")
+    x = np.zeros(len(problem.parameters))
+    x[[p.name for p in problem.parameters].index("pitch")] = classical_tuning.LOG_BOUND  # pitch gain x20
+    with pytest.raises(classical_tuning.NotRobust):
+        problem.design(x)
+    [evaluation] = classical_tuning.evaluate_candidates(problem, [x], reference={})
+    assert evaluation.score == math.inf and evaluation.reason.startswith("not robust")
+    assert evaluation.told >= classical_tuning.PENALTY
+
+
+def test_the_tuning_refuses_the_frozen_test_seeds(monkeypatch, tmp_path, capsys):
+    with pytest.raises(ValueError, match="tune_classical: seed 900000 reach into the frozen test set"):
+        classical_tuning.refuse_test_seeds(TEST_SEEDS.start)
+    monkeypatch.setitem(heldout.SEEDS, "calm", TEST_SEEDS.start + 5)
+    with pytest.raises(ValueError, match=r"^tune_classical: .*frozen test set"):
+        classical_tuning.tune("pid", budget=2, quick=True)
+    out = tmp_path / "pid.json"
+    assert _main(["--controller", "pid", "--budget", "2", "--quick", "--out", str(out)]) == 2
+    assert "tune_classical" in capsys.readouterr().err and not out.exists()
+
+
+def test_tuned_controllers_need_their_gain_file(monkeypatch, tmp_path):
+    monkeypatch.setitem(factory.TUNED_GAIN_FILES, "pid_tuned", tmp_path / "none.json")
+    with pytest.raises(factory.TunedGainsMissing, match=r"scripts/tune_classical.py --controller pid"):
+        factory.make_controller("pid_tuned")
+    with pytest.raises(SystemExit) as exc:  # the shipped tables are never the output
+        _main(["--controller", "pid", "--budget", "2", "--out", str(PID_GAINS_PATH)])
+    assert exc.value.code == 2
+    with pytest.raises(ValueError, match="shipped gain table"):
+        classical_tuning.write_tuned_table({}, PID_GAINS_PATH)
