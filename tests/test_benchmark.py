@@ -113,3 +113,15 @@ def test_the_benchmark_command_refuses_bad_input(tmp_path, capsys, load_script):
     assert "each once" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         script.main(["--episodes", str(len(TEST_SEEDS) + 1), "--out", str(tmp_path)])
+
+
+def test_a_flight_that_leaves_its_leg_inside_the_window_counts_as_an_early_end(monkeypatch):
+    """A controller that flies the leg too fast reaches the corner inside the window: the job is
+    not scored on a window with a corner, it is counted as not having flown the condition."""
+    from training.evaluation import benchmark
+
+    monkeypatch.setattr(benchmark, "corner_free", lambda result, start, end: False)
+    job = benchmark.BenchJob("calm", {"altitude_m": 1000.0}, "pid", 0, quick=True)
+    (row,) = benchmark.run_benchmark_job(job)
+    assert row["ended_early"].startswith("left the first leg") and row["corner_free"]
+    assert all(math.isnan(row[k]) for k in benchmark.FAMILIES["calm"].metrics)
