@@ -46,6 +46,8 @@ from jsbsim_env.control.pid import (
     MIN_EAS_FOR_SCALING_MPS,
     SURFACE_INTEGRATOR_LIMIT_DEG,
     THROTTLE_INTEGRATOR_LIMIT,
+    altitude_points,
+    read_gain_file,
 )
 from jsbsim_env.sim.core import COMMAND_HIGH, COMMAND_LOW
 from jsbsim_env.sim.simulation import Simulation
@@ -221,11 +223,7 @@ class LQIGainSchedule:
     """The stored LQI table (``GAIN_COLUMNS``), interpolated linearly in altitude, held beyond its ends."""
 
     def __init__(self, path: Path | str = GAINS_PATH):
-        try:
-            table = json.loads(Path(path).read_text())
-        except (OSError, ValueError) as exc:
-            raise ValueError(f"LQI gain table {path} is missing or malformed: {exc}") from exc
-        self._load(table, path)
+        self._load(read_gain_file(path, "LQI"), path)
 
     @classmethod
     def from_table(cls, table: dict, source: str = "(in memory)") -> LQIGainSchedule:
@@ -236,15 +234,8 @@ class LQIGainSchedule:
         return schedule
 
     def _load(self, table: dict, path: Path | str) -> None:
-        try:
-            points = table["points"]
-            self.altitudes_m = np.array([p["altitude_m"] for p in points], dtype=float)
-            self.values = np.array([[float(p[n]) for n in GAIN_COLUMNS] for p in points])
-            self.margins = [p.get("margins") for p in points]
-        except (OSError, ValueError, KeyError, TypeError) as exc:
-            raise ValueError(f"LQI gain table {path} is missing or malformed: {exc}") from exc
-        if len(self.altitudes_m) == 0 or np.any(np.diff(self.altitudes_m) <= 0) or not np.all(np.isfinite(self.values)):
-            raise ValueError(f"LQI gain table {path} needs finite gains at increasing altitudes")
+        self.altitudes_m, self.values = altitude_points(table, GAIN_COLUMNS, path, "LQI")
+        self.margins = [p.get("margins") for p in table["points"]]
         self._altitudes = self.altitudes_m.tolist()
         self._rows = self.values.tolist()
 

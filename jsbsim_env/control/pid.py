@@ -92,15 +92,33 @@ def write_gain_table(path: Path = GAINS_PATH, altitudes_m=DESIGN_ALTITUDES_M, pr
     return table
 
 
+def read_gain_file(path: Path | str, what: str) -> dict:
+    """A gain table file (the PID's or the LQI's): its JSON, or ``ValueError`` naming ``what`` and the file."""
+    try:
+        return json.loads(Path(path).read_text())
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"{what} gain table {path} is missing or malformed: {exc}") from exc
+
+
+def altitude_points(table: dict, columns, path: Path | str, what: str) -> tuple[np.ndarray, np.ndarray]:
+    """The design altitudes (m) and, a row each, the ``columns`` of a gain table's ``points``;
+    ``ValueError`` naming ``what`` and ``path`` unless they are finite, at increasing altitudes."""
+    try:
+        points = table["points"]
+        altitudes_m = np.array([p["altitude_m"] for p in points], dtype=float)
+        values = np.array([[float(p[n]) for n in columns] for p in points])
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise ValueError(f"{what} gain table {path} is missing or malformed: {exc}") from exc
+    if len(altitudes_m) == 0 or np.any(np.diff(altitudes_m) <= 0) or not np.all(np.isfinite(values)):
+        raise ValueError(f"{what} gain table {path} needs finite gains at increasing altitudes")
+    return altitudes_m, values
+
+
 class GainSchedule:
     """The stored gain table, interpolated in altitude (held constant beyond its ends)."""
 
     def __init__(self, path: Path | str = GAINS_PATH):
-        try:
-            table = json.loads(Path(path).read_text())
-        except (OSError, ValueError) as exc:
-            raise ValueError(f"PID gain table {path} is missing or malformed: {exc}") from exc
-        self._load(table, path)
+        self._load(read_gain_file(path, "PID"), path)
 
     @classmethod
     def from_table(cls, table: dict, source: str = "(in memory)") -> GainSchedule:
@@ -111,15 +129,8 @@ class GainSchedule:
         return schedule
 
     def _load(self, table: dict, path: Path | str) -> None:
-        try:
-            points = table["points"]
-            names = [f.name for f in fields(DesignPoint)]
-            self.altitudes_m = np.array([p["altitude_m"] for p in points], dtype=float)
-            self.values = np.array([[float(p[n]) for n in names] for p in points])
-        except (OSError, ValueError, KeyError, TypeError) as exc:
-            raise ValueError(f"PID gain table {path} is missing or malformed: {exc}") from exc
-        if len(self.altitudes_m) == 0 or np.any(np.diff(self.altitudes_m) <= 0) or not np.all(np.isfinite(self.values)):
-            raise ValueError(f"PID gain table {path} needs finite gains at increasing altitudes")
+        names = [f.name for f in fields(DesignPoint)]
+        self.altitudes_m, self.values = altitude_points(table, names, path, "PID")
 
         # Plain floats: read every control step, on one altitude, where np.interp's per-call cost
         # (about 1.5 us a column) dominates.
