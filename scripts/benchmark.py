@@ -44,6 +44,7 @@ from training.evaluation.sweep import run_local, run_ray
 from training.runtime import (
     OutputFolderError,
     ScriptParser,
+    available_cores,
     claim_output_folder,
     number_type,
     positive_int,
@@ -66,7 +67,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--overwrite", action="store_true", help="replace the results of an earlier benchmark in --out")
     p.add_argument("--backend", choices=("local", "ray"), default="local",
                    help="local: a process pool; ray: Ray tasks (pip install '.[ray]'); the same numbers")
-    p.add_argument("--workers", type=positive_int, default=1, help="processes of the local backend")
+    p.add_argument("--workers", type=positive_int, default=available_cores(),
+                   help="processes of the local backend (default: this machine's cores)")
     p.add_argument("--address", default=None, help="ray backend: a cluster's address ('auto': this machine's); "
                                                    "a local Ray instance when omitted")
     p.add_argument("--quick", action="store_true", help="short windows, for checks (not a benchmark)")

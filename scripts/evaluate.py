@@ -31,8 +31,13 @@ from training.runtime import (
 )
 
 SHIPPED, PID = "shipped", "PID"  # column names of --compare
+# The classical controllers' keys in the JSON output, and what it says about each.
+_LABELS = {"pid": PID, "lqi": "LQI", "pid_tuned": "PID_tuned", "lqi_tuned": "LQI_tuned"}
+_ABOUT = {"pid": "gain-scheduled PID", "lqi": "gain-scheduled LQI",
+          "pid_tuned": "gain-scheduled PID, tuned on nonlinear flights",
+          "lqi_tuned": "gain-scheduled LQI, tuned on nonlinear flights"}
 # jsbsim_env.control.factory.CONTROLLER_NAMES, spelled out: the factory loads the simulation
-CONTROLLER_NAMES = ("policy", "pid", "lqi")
+CONTROLLER_NAMES = ("policy", "pid", "lqi", "pid_tuned", "lqi_tuned")
 DEFAULT_EPISODES = 50
 # The files --plots receives (training.evaluation.suite.doublet_runs): an earlier evaluation's are
 # refused, or replaced with --overwrite.
@@ -143,15 +148,13 @@ def _controllers(args) -> dict[str, tuple[object, dict]]:
                          **{k: v for k, v in meta.items() if k not in ("network", "stack")},
                          "stack": meta["stack"].to_dict()}
 
-    pid = (PIDAttitudeController(), {"name": "gain-scheduled PID"})
     if args.compare:
+        pid = (PIDAttitudeController(), {"name": "gain-scheduled PID"})
         return {**{str(path): policy(path) for path in args.compare}, SHIPPED: policy(None), PID: pid}
-    if args.controller == "pid":
-        return {PID: pid}
-    if args.controller == "lqi":
-        from jsbsim_env.control.lqi import LQIAttitudeController
+    if args.controller != "policy":
+        from jsbsim_env.control.factory import make_controller
 
-        return {"LQI": (LQIAttitudeController(), {"name": "gain-scheduled LQI"})}
+        return {_LABELS[args.controller]: (make_controller(args.controller), {"name": _ABOUT[args.controller]})}
     return {"policy": policy(args.policy)}
 
 

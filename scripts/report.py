@@ -36,7 +36,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--experiments", default=",".join(EXPERIMENTS),
                         help="comma-separated subset of the experiments (default: all of them)")
     parser.add_argument("--controllers", default=",".join(CONTROLLERS),
-                        help="comma-separated controllers (default: both; LQI, the LQI baseline, when named)")
+                        help=f"comma-separated controllers (default: {','.join(CONTROLLERS)}; also any of {', '.join(EXTRA_CONTROLLERS)})")
     return parser
 
 

@@ -62,7 +62,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--axis", action="append", default=[], metavar="NAME=V1,V2,...",
                    help="an axis and its values (repeatable, each axis once): " + ", ".join(
                        f"{k} {AXIS_RANGES[k].text(v)}" for k, v in AXIS_UNITS.items()))
-    p.add_argument("--controllers", default="policy,pid", help="comma-separated: policy, pid, lqi")
+    p.add_argument("--controllers", default="policy,pid", help=f"comma-separated, any of: {', '.join(CONTROLLER_NAMES)}")
     p.add_argument("--policy", default=None, help="policy file (.pt); the shipped policy when omitted")
     p.add_argument("--episodes", type=positive_int, default=10, help="seeded episodes per controller and condition")
     p.add_argument("--out", type=Path, default=Path("runs/sweep"), help="folder for the table, JSON and plots")
@@ -128,7 +128,7 @@ def main(argv=None) -> int:
         controllers = [c.strip() for c in args.controllers.split(",") if c.strip()]
         bad = [c for c in controllers if c not in CONTROLLER_NAMES]
         if bad or not controllers:
-            raise ValueError(f"--controllers takes policy and/or pid and/or lqi, got {args.controllers!r}")
+            raise ValueError(f"--controllers takes any of {', '.join(CONTROLLER_NAMES)}, got {args.controllers!r}")
         check_not_test_seed(range(SWEEP_EPISODE_SEED, SWEEP_EPISODE_SEED + args.episodes), "sweep")
     except ValueError as err:
         print(f"sweep: {err}", file=sys.stderr)

@@ -35,6 +35,10 @@ def test_quick_report_writes_every_named_file(tmp_path, untrained_policy):
     # The PID's rows match its metrics.
     pid = metrics["route_10km"]["PID"]["turbulent_leg"]
     assert f"| PID | ours | {pid['rmse_roll_deg']:.3f} |" in text
+    # Beside the paper's window, the same leg without the turn into it.
+    straight = metrics["route_10km"]["PID"]["turbulent_leg_straight"]
+    assert f"| PID | ours, no corner | {straight['rmse_roll_deg']:.3f} |" in text
+    assert straight["rmse_roll_deg"] != pid["rmse_roll_deg"]
 
 
 def test_report_without_a_policy_file_fails_clearly(tmp_path):

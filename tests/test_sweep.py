@@ -108,7 +108,7 @@ def test_the_sweep_command_refuses_bad_input(tmp_path, capsys, load_script):
     assert script.main(["--out", str(tmp_path)]) == 2
     assert "give at least one --axis" in capsys.readouterr().err
     assert script.main(["--axis", "delay_ms=0", "--controllers", "lqr", "--out", str(tmp_path)]) == 2
-    assert "--controllers takes policy and/or pid" in capsys.readouterr().err
+    assert "--controllers takes any of policy, pid, lqi" in capsys.readouterr().err
 
 
 def test_a_missing_ray_is_a_clear_message(monkeypatch):

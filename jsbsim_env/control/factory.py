@@ -1,12 +1,8 @@
 """The attitude controllers the commands fly, by name: a trained policy (with the control stack its
-file records), the gain-scheduled PID or the gain-scheduled LQI. The loop bench, the sweeps, the ablation and the report
-build theirs here.
-
-Beside them, the PID and the LQI re-tuned on nonlinear flights (``scripts/tune_classical.py``,
-``training.evaluation.classical_tuning``) by ``TUNED_CONTROLLER_NAMES``: the same controllers with
-the tuned gain file (``TUNED_GAIN_FILES``), where it has been written. They are not in
-``CONTROLLER_NAMES``, the controllers every command offers by default, because their files exist
-only once a tuning has run."""
+file records), the gain-scheduled PID or the gain-scheduled LQI, and the PID and the LQI re-tuned
+on nonlinear flights (``scripts/tune_classical.py``, ``training.evaluation.classical_tuning``):
+the same controllers with their tuned gain files (``TUNED_GAIN_FILES``). The loop bench, the
+sweeps, the benchmark, the ablation and the report build theirs here."""
 
 from __future__ import annotations
 
@@ -14,8 +10,8 @@ from pathlib import Path
 
 from jsbsim_env.control.pid import PIDAttitudeController
 
-CONTROLLER_NAMES = ("policy", "pid", "lqi")
 TUNED_CONTROLLER_NAMES = ("pid_tuned", "lqi_tuned")
+CONTROLLER_NAMES = ("policy", "pid", "lqi", *TUNED_CONTROLLER_NAMES)
 _HERE = Path(__file__).parent
 TUNED_GAIN_FILES = {"pid_tuned": _HERE / "pid_tuned_gains.json", "lqi_tuned": _HERE / "lqi_tuned_gains.json"}
 
@@ -26,7 +22,7 @@ class TunedGainsMissing(FileNotFoundError):
 
 def tuned_gain_file(name: str) -> Path:
     """The gain file of the tuned controller ``name``; ``TunedGainsMissing`` (one line saying how to
-    write it) where there is none."""
+    write it) where it has been deleted."""
     path = TUNED_GAIN_FILES[name]
     if not path.is_file():
         controller = name.removesuffix("_tuned")
@@ -55,7 +51,7 @@ def make_controller(name: str, policy=None, backend: str = "onnx"):
         from jsbsim_env.control.lqi import LQIAttitudeController
 
         return LQIAttitudeController(gains_path=tuned_gain_file(name))
-    raise ValueError(f"controller must be one of {', '.join(CONTROLLER_NAMES + TUNED_CONTROLLER_NAMES)}, got {name!r}")
+    raise ValueError(f"controller must be one of {', '.join(CONTROLLER_NAMES)}, got {name!r}")
 
 
 __all__ = ["CONTROLLER_NAMES", "TUNED_CONTROLLER_NAMES", "TUNED_GAIN_FILES", "TunedGainsMissing", "make_controller",

@@ -366,22 +366,46 @@ def render_markdown(summary: dict, controllers: list[str], plan: BenchmarkPlan, 
              f"(calm: {plan.calm_window_s[0]:g}-{plan.calm_window_s[1]:g} s); steps {plan.step_deg:g} deg at "
              f"{plan.step_start_s:g} s, scored for {plan.step_window_s:g} s."), ""]
     pairs = [f"{a} - {b}" for a, b in itertools.combinations(controllers, 2)]
+    if len(controllers) > 1:
+        first, others = controllers[0], controllers[1:]
+        lines += [f"## {first} against each other controller", "",
+                  (f"The paired difference {first} − other and its verdict for {first}: better, worse, or = (no "
+                   "difference at 95 %). Every pair's interval is in the families' tables below."), "",
+                  "| family | condition | metric | " + " | ".join(others) + " |", "|" + "---|" * (3 + len(others))]
+        for name, per_condition in summary.items():
+            for cond, entry in per_condition.items():
+                for metric in FAMILIES[name].metrics:
+                    cells = [name, cond, metric]
+                    for other in others:
+                        d = entry["pairs"][f"{first} - {other}"][metric]
+                        verdict = "=" if d["verdict"] == "no difference" else d["verdict"]
+                        cells.append(f"{verdict} ({_fmt(d['mean'])})")
+                    lines.append("| " + " | ".join(cells) + " |")
+        lines.append("")
     for name, per_condition in summary.items():
         family = FAMILIES[name]
+        metrics = list(family.metrics)
         lines += [f"## {name}: {family.what}", "", f"Window: {window_text(family.window, plan)}.", ""]
-        head = ["condition", "metric", *controllers, *(f"{p} [95 %], verdict" for p in pairs)]
+        head = ["condition", "metric", *controllers]
         lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
         for cond, entry in per_condition.items():
-            for metric in family.metrics:
+            for metric in metrics:
                 cells = [cond, metric]
                 for c in controllers:
                     s = entry["controllers"][c]["metrics"][metric]
                     early = entry["controllers"][c]["ended_early"]
                     cells.append(f"{_fmt(s['mean'])} ± {_fmt(s['std'])}" + (f" ({early} ended early)" if early else ""))
-                for p in pairs:
-                    d = entry["pairs"][p][metric]
-                    cells.append(f"{_fmt(d['mean'])} [{_fmt(d['low'])}, {_fmt(d['high'])}] {d['verdict']}")
                 lines.append("| " + " | ".join(cells) + " |")
+        if pairs:
+            head = ["condition", "pair", *(f"{m}: difference [95 %], verdict" for m in metrics)]
+            lines += ["", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+            for cond, entry in per_condition.items():
+                for p in pairs:
+                    cells = [cond, p]
+                    for metric in metrics:
+                        d = entry["pairs"][p][metric]
+                        cells.append(f"{_fmt(d['mean'])} [{_fmt(d['low'])}, {_fmt(d['high'])}] {d['verdict']}")
+                    lines.append("| " + " | ".join(cells) + " |")
         lines += ["", f"![{name}]({name}.png)", ""]
     return "\n".join(lines)
 
