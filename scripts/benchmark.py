@@ -3,13 +3,15 @@
     python scripts/benchmark.py --controllers policy,pid --episodes 20 --out runs/benchmark
     python scripts/benchmark.py --controllers policy,pid --backend ray --out runs/benchmark_ray
     python scripts/benchmark.py --controllers pid,policy --families turbulence,steps --quick --out /tmp/bench
+    python scripts/benchmark.py --split validation --controllers policy,lqi_tuned --out runs/benchmark_validation
 
 Every controller flies the same realisations (seeds of ``training.evaluation.seeds.TEST_SEEDS``,
 which only this command flies) of each flight family (``training.evaluation.benchmark``: turbulence
 rejection on straight legs at 1, 10 and 20 km, roll and pitch steps, calm steady-state error, the
 Table 9 aircraft, the sweeps' robustness axes at a stressed value, the route's first corner), each scored on a window that
 measures one thing. For every metric and pair of controllers: the paired difference with its 95 %
-interval and the verdict (better, worse, no difference at 95 %).
+interval and the verdict (better, worse, no difference at 95 %). ``--split validation`` flies the
+same families on the validation seeds (``VALIDATION_SEEDS``), for choices made with these measures.
 
 Writes to ``--out``: ``benchmark.md`` (a table per family), ``benchmark.json`` (the rows, the
 summary and the command), one PNG per family and ``command.txt``. ``--backend local`` and
@@ -39,7 +41,7 @@ from training.evaluation.benchmark import (
     run_benchmark_job,
     summarise,
 )
-from training.evaluation.seeds import TEST_SEEDS
+from training.evaluation.seeds import SPLITS, TEST_SEEDS
 from training.evaluation.sweep import run_local, run_ray
 from training.runtime import (
     OutputFolderError,
@@ -61,6 +63,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--policy", default=None, help="policy file (.pt); the shipped policy when omitted")
     p.add_argument("--episodes", type=number_type(int, 1, len(TEST_SEEDS)), default=20,
                    help=f"realisations per condition of each family (1 to {len(TEST_SEEDS)}, the test set's size)")
+    p.add_argument("--split", choices=tuple(SPLITS), default="test",
+                   help="test: the frozen test set, for results; validation: other seeds, for choices")
     p.add_argument("--families", default=",".join(FAMILIES), help=f"comma-separated, any of: {', '.join(FAMILIES)}")
     p.add_argument("--method", choices=("t", "bootstrap"), default="t", help="the paired difference's 95 %% interval")
     p.add_argument("--out", type=Path, default=Path("runs/benchmark"), help="folder for the tables, JSON and plots")
@@ -109,7 +113,7 @@ def main(argv=None) -> int:
             return 2
     from tqdm import tqdm
 
-    jobs = jobs_for(families, controllers, args.episodes, args.quick)
+    jobs = jobs_for(families, controllers, args.episodes, args.quick, args.split)
     bar = tqdm(total=len(jobs), desc=f"benchmark ({args.backend})", unit="flight", file=sys.stderr,
                disable=args.no_progress or args.json)
     started = time.perf_counter()
@@ -134,11 +138,12 @@ def main(argv=None) -> int:
     summary = summarise(rows, controllers, args.method)
     record = {"command": command, "backend": args.backend, "cores": info["cpus"], "wall_s": wall_s,
               "flights": len(rows), "controllers": controllers, "families": families, "episodes": args.episodes,
-              "seeds": [TEST_SEEDS.start, TEST_SEEDS.start + args.episodes - 1], "method": args.method,
+              "split": args.split, "seeds": [SPLITS[args.split].start, SPLITS[args.split].start + args.episodes - 1],
+              "method": args.method,
               "quick": args.quick, "plan": plan_dict(args.quick), "summary": summary}
     (args.out / "benchmark.json").write_text(json.dumps(json_ready({**record, "rows": rows}), indent=1))
     (args.out / "benchmark.md").write_text(render_markdown(summary, controllers, plan, args.episodes, command,
-                                                           args.method))
+                                                           args.method, args.split))
     for family in families:
         plot_family(rows, family, controllers, args.out / f"{family}.png")
     if args.json:

@@ -35,7 +35,7 @@ def test_every_route_window_is_on_the_first_leg_and_the_flight_ends_before_its_c
             config = route_config(BenchJob(family, condition, "pid", 0, quick), plan)
             window = plan.calm_window_s if family == "calm" else plan.leg_window_s
             assert config.duration_s == window[1] and config.seed == TEST_SEEDS[0]
-            assert first_corner_s(config) > window[1] * 1.02, (family, condition)
+            assert first_corner_s(config) > window[1] * 1.5, (family, condition)  # a margin for the turbulence
     for condition in FAMILIES["corner"].conditions:  # the corner family's flights reach their corner
         config = route_config(BenchJob("corner", condition, "pid", 0, quick), plan)
         assert config.duration_s > first_corner_s(config) + plan.corner_window_s
@@ -77,6 +77,19 @@ def test_jobs_fly_only_the_test_seeds():
     assert {TEST_SEEDS[j.realisation] for j in jobs} == set(TEST_SEEDS[:3])
     with pytest.raises(ValueError):
         jobs_for(["steps"], ["pid"], len(TEST_SEEDS) + 1)
+
+
+def test_the_validation_split_flies_its_own_seeds_apart_from_the_test_set():
+    from training.evaluation.benchmark import seed_of
+    from training.evaluation.seeds import VALIDATION_SEEDS, overlaps_test_seeds
+
+    jobs = jobs_for(["calm"], ["pid"], 2, split="validation")
+    seeds = {seed_of(j.realisation, j.split) for j in jobs}
+    assert seeds == set(VALIDATION_SEEDS[:2]) and not overlaps_test_seeds(VALIDATION_SEEDS)
+    plan = BenchmarkPlan.quick()
+    assert route_config(jobs[0], plan).seed == VALIDATION_SEEDS[0]
+    with pytest.raises(ValueError, match="split"):
+        jobs_for(["calm"], ["pid"], 2, split="train")
 
 
 def test_the_benchmark_command_writes_its_outputs_and_ray_gives_the_same_numbers(tmp_path, capsys, load_script):

@@ -374,3 +374,34 @@ def test_each_trim_removes_a_steady_error_on_the_route(trims, pitch_share):
     trimmed = steady_state_errors(fly_route(_StackAroundProportional(trims), config), 60.0)
     assert alone["pitch_deg"] > 0.2 and trimmed["pitch_deg"] < pitch_share * alone["pitch_deg"]
     assert alone["roll_deg"] > 0.1 and trimmed["roll_deg"] < 0.5 * alone["roll_deg"]
+
+
+# ----------------------------------------------------------------------------- training as flown
+@pytest.mark.parametrize("goal_trim_s, surface_gain", [(20.0, 2.0), (0.0, 0.5), (5.0, 0.0)])
+def test_the_training_task_observes_step_for_step_as_the_flight_stack(goal_trim_s, surface_gain):
+    # The task's episodes (sensor noise, delay, random interval on) fed to the flight stack as
+    # measurements: from the second step on, when both last actions are the policy's, the stack's
+    # newest observation is the task's, so a policy trained in the task flies as it trained.
+    from jsbsim_env.control.pid import PIDAttitudeController
+    from jsbsim_env.task.attitude import AttitudeTask, TaskConfig
+
+    pilot = PIDAttitudeController()  # flies the aircraft close to its goals, where the goal trim acts
+    task = AttitudeTask(TaskConfig(surface_trim_gain=surface_gain, goal_trim_time_constant_s=goal_trim_s))
+    stack = ControlStack(StackSettings(window_steps=1, goal_trim_time_constant_s=goal_trim_s,
+                                       surface_trim_gain=surface_gain))
+    obs, _ = task.reset(seed=5)
+    dt_s = task.core.setup.control_interval_s
+    for k in range(250):  # 10 s: goals change, trims move
+        b = task.batch
+        measurement, asked = b.measurements()[0], b.goals[0].copy()
+        window = stack.observe(measurement.tolist(), asked.tolist(), dt_s)
+        if k > 0:
+            np.testing.assert_allclose(window[-1], obs, rtol=0, atol=1e-6)
+        action = np.clip(command_to_action(pilot.update(dt_s, measurement, asked)), -1.0, 1.0).tolist()
+        stack.command(action)
+        obs, _, terminated, truncated, _ = task.step(np.array(action))
+        assert not (terminated or truncated)
+    if surface_gain:
+        assert max(abs(t) for t in stack.surface_trim.trim_deg) > 1e-3
+    if goal_trim_s:
+        assert max(abs(t) for t in stack.goal_trim.offset_rad) > 1e-5

@@ -16,7 +16,10 @@ alpha and beta rad, aileron, elevator and rudder positions rad, throttle 0..1).
 
 With ``TaskConfig.surface_trim_gain`` > 0, the flown controller's surface trim
 (``jsbsim_env.control.trims.SurfaceTrim``, the same stage objects as in flight) adds its trims to
-every command and takes them off the observed surface positions, as the flight runtime does.
+every command and takes them off the observed surface positions, as the flight runtime does. With
+``TaskConfig.goal_trim_time_constant_s`` > 0, its goal trim (``GoalTrim``) moves the goal the
+policy observes, step for step as ``jsbsim_env.control.stack.ControlStack`` does in flight; the
+reward is always against the goal asked for.
 """
 
 from __future__ import annotations
@@ -37,7 +40,7 @@ from jsbsim_env.control.observation import (
 )
 from jsbsim_env.control.pid import GainSchedule, PIDAttitudeController
 from jsbsim_env.control.stack import observation_row
-from jsbsim_env.control.trims import SurfaceTrim, check_surface_trim_gain
+from jsbsim_env.control.trims import GoalTrim, SurfaceTrim, check_goal_trim_time_constant, check_surface_trim_gain
 from jsbsim_env.sim.core import (
     N_STATE,
     CoreConfig,
@@ -104,6 +107,8 @@ class TaskConfig:
 
     ``surface_trim_gain`` g > 0 flies the policy's commands through the control stack's surface
     trim at g times the PID's integral gains (``jsbsim_env.control.trims``); 0: none, as the paper.
+    ``goal_trim_time_constant_s`` > 0 gives the policy its goals through the control stack's goal
+    trim with that time constant; 0: none, as the paper.
     ``sideslip_weight``, ``roll_weight`` and ``pitch_weight`` multiply Eq. 22's sideslip, roll and
     pitch penalties and their caps (1: the paper's reward).
     ``penalty_tail`` keeps that share of each penalty's slope beyond its cap (0: the paper's reward),
@@ -117,6 +122,7 @@ class TaskConfig:
     core: CoreConfig = field(default_factory=CoreConfig)
     goal_hold_s: tuple[float, float] = (3.0, 10.0)  # each channel holds its goal this long, drawn uniformly
     surface_trim_gain: float = 0.0  # fraction of the PID's integral gains; 0: none, as the paper
+    goal_trim_time_constant_s: float = 0.0  # 0: none, as the paper
     sideslip_weight: float = 1.0
     roll_weight: float = 1.0
     pitch_weight: float = 1.0
@@ -125,6 +131,7 @@ class TaskConfig:
 
     def __post_init__(self):
         check_surface_trim_gain(self.surface_trim_gain, "surface_trim_gain")
+        check_goal_trim_time_constant(self.goal_trim_time_constant_s, "goal_trim_time_constant_s")
         low, high = self.goal_hold_s
         if not 0.0 < low <= high < math.inf:  # NaN fails too
             raise ValueError(f"goal_hold_s must be a finite range (low, high) with 0 < low <= high, got {(low, high)}")
@@ -178,6 +185,8 @@ class AttitudeTaskBatch:
         trim, self._external_share = self.config.surface_trim_gain, self.config.external_throttle
         schedule = GainSchedule() if trim > 0.0 or self._external_share > 0.0 else None  # read once for all
         self._trims = [SurfaceTrim(trim, schedule) for _ in range(n)] if trim > 0.0 else None
+        tc = self.config.goal_trim_time_constant_s
+        self._goal_trims = [GoalTrim(tc) for _ in range(n)] if tc > 0.0 else None
         self._speed_holds = [PIDAttitudeController(schedule) for _ in range(n)] if self._external_share > 0.0 else None
         self._sideslip_weight, self._roll_weight = self.config.sideslip_weight, self.config.roll_weight
         self._pitch_weight = self.config.pitch_weight
@@ -216,6 +225,8 @@ class AttitudeTaskBatch:
         self.steps[i] = 0
         if self._trims is not None:
             self._trims[i].reset()
+        if self._goal_trims is not None:
+            self._goal_trims[i].reset()
         return np.array(self._observation(i), dtype=np.float32)
 
     # ------------------------------------------------------------------ stepping
@@ -247,6 +258,10 @@ class AttitudeTaskBatch:
             command = action_list_to_command(a)
             if self._trims is not None:
                 command = self._trims[i].apply(command)
+            if self._goal_trims is not None:
+                # This step's error against the goal asked moves the next goal given (as in flight).
+                measured = [x + e for x, e in zip(self.states[i], self.noise[i])]
+                self._goal_trims[i].integrate(core.setup.control_interval_s, measured, self._goal_lists[i])
             external = self.external_throttle[i]
             if external:
                 # The speed hold reads the measurement the policy acted on and flies the real goal.
@@ -273,7 +288,7 @@ class AttitudeTaskBatch:
                 # The error against the goal now held, measured as the policy sees it, trims the
                 # next command (as the control stack does in flight).
                 measured = [x + e for x, e in zip(state, self.noise[i])]
-                self._trims[i].integrate(core.setup.control_interval_s, measured, self._goal_lists[i])
+                self._trims[i].integrate(core.setup.control_interval_s, measured, self._given_goal(i))
             obs.append(self._observation(i))
         codes_a = np.array(codes)
         terminated = codes_a > 0
@@ -305,10 +320,15 @@ class AttitudeTaskBatch:
         self._next_goal_change_min_s[i] = math.inf
 
     # ------------------------------------------------------------------ observations
-    def _observation(self, i: int) -> list[float]:
-        """Scaled network observation of aircraft ``i`` (measured state, last action, goal), as a list:
-        the control stack's ``observation_row`` on the true state and its sensor noise."""
+    def _given_goal(self, i: int) -> list[float]:
+        """The goal aircraft ``i``'s policy is given: the goal asked for, through the goal trim."""
         goal = self._goal_lists[i]
+        return self._goal_trims[i].goal(goal) if self._goal_trims is not None else goal
+
+    def _observation(self, i: int) -> list[float]:
+        """Scaled network observation of aircraft ``i`` (measured state, last action, goal given), as a
+        list: the control stack's ``observation_row`` on the true state and its sensor noise."""
+        goal = self._given_goal(i)
         if self.external_throttle[i]:  # speed-free: the EAS goal is the measured EAS
             goal = [goal[0], goal[1], self.states[i][EAS_INDEX] + self.noise[i][EAS_INDEX]]
         trim = self._trims[i] if self._trims is not None else None

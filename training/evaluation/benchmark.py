@@ -3,7 +3,8 @@
 Every flight family is scored on a window that measures one thing, and every realisation ``k``
 (seed ``TEST_SEEDS[k]``, ``training.evaluation.seeds``: the turbulence, the sensor noise, the start
 and, where drawn, the aircraft) is flown by every controller, so that two controllers differ on
-each realisation only by themselves (``training.evaluation.stats``).
+each realisation only by themselves (``training.evaluation.stats``). The validation split flies
+the same families on ``VALIDATION_SEEDS``, for choices made with the benchmark's measures.
 
 | family | flight | window | scores |
 |---|---|---|---|
@@ -15,9 +16,12 @@ each realisation only by themselves (``training.evaluation.stats``).
 | ``corner`` | route at 1 and 10 km, calm air | 60 s from the first leg change | RMSE roll, pitch, sideslip |
 
 A route flight starts trimmed on its first leg, heading along it; in the straight-leg families it
-ends at the window's end, before the first turn (at 10 km the first leg's corner begins at about 327 s; at 1 km and 20 km,
-where the leg is longer in time, later): ``corner_free`` checks on the flight itself that every
-sample of the window is on the first leg, and a job whose window holds a corner fails. The
+ends at the window's end, before the first turn: their first leg is 9 km long (the report's is
+6 km), so that at 10 km its corner comes at about 500 s in still air, well after the window ends
+even for a flight the turbulence or a stressed aircraft carries along faster (on the 6 km leg, a
+few such flights reached the corner at 280 s). ``corner_free`` checks on the flight itself that
+every sample of the window is on the first leg; a flight that leaves it inside the window counts as
+not having flown the condition. The
 ``corner`` family scores the first turn itself, from the leg change found on each flight.
 
 One job is one controller x one realisation x one condition of one family; it depends only on
@@ -36,7 +40,7 @@ import numpy as np
 from jsbsim_env.missions import MissionResult, RouteConfig
 from jsbsim_env.sim import disturbances as dist
 from jsbsim_env.sim.core import CoreConfig
-from training.evaluation.seeds import TEST_SEEDS
+from training.evaluation.seeds import SPLITS
 from training.evaluation.stats import LOWER_IS_BETTER, paired_difference
 from training.evaluation.sweep import AXES, AXIS_UNITS
 
@@ -52,6 +56,7 @@ class BenchmarkPlan:
     step_deg: float = 5.0
     settle_band: float = 0.05  # settling: the response stays within 5 % of the step
     corner_window_s: float = 60.0  # the corner family: from the first leg change on
+    straight_leg_north_m: float = 9_000.0  # the straight-leg families' first leg (the report's route: 6 km)
     quick_square_m: float | None = None  # quick: a square route of this side, its first corner in seconds
 
     @classmethod
@@ -133,24 +138,26 @@ class BenchJob:
     controller: str
     realisation: int
     quick: bool = False
+    split: str = "test"  # the seed range (``seeds.SPLITS``): the frozen test set, or validation for choices
 
 
-def seed_of(realisation: int) -> int:
-    return TEST_SEEDS[realisation]
+def seed_of(realisation: int, split: str = "test") -> int:
+    return SPLITS[split][realisation]
 
 
 def route_config(job: BenchJob, plan: BenchmarkPlan) -> RouteConfig:
     """The route flight of a route family's job: it ends at the window's end, on the first leg."""
-    c, seed = job.condition, seed_of(job.realisation)
+    c, seed = job.condition, seed_of(job.realisation, job.split)
     end = (plan.calm_window_s if job.family == "calm" else plan.leg_window_s)[1]
+    leg = plan.straight_leg_north_m
     if job.family in ("turbulence", "calm"):
-        return RouteConfig(altitude_m=c["altitude_m"], duration_s=end, seed=seed,
+        return RouteConfig(altitude_m=c["altitude_m"], leg_north_m=leg, duration_s=end, seed=seed,
                            turbulence_legs=(0,) if job.family == "turbulence" else ())
     if job.family == "table9":
-        return RouteConfig(altitude_m=10_000.0, duration_s=end, seed=seed, parameters=c["parameters"])
+        return RouteConfig(altitude_m=10_000.0, leg_north_m=leg, duration_s=end, seed=seed, parameters=c["parameters"])
     if job.family == "robustness":
         parameters = dist.RANDOMISED if c["axis"] == "parameter_strength" else "nominal"
-        return StressedRoute(altitude_m=10_000.0, duration_s=end, seed=seed, turbulence_legs=(0,),
+        return StressedRoute(altitude_m=10_000.0, leg_north_m=leg, duration_s=end, seed=seed, turbulence_legs=(0,),
                              parameters=parameters, stress=((c["axis"], float(c["value"])),))
     if job.family == "corner":
         base = RouteConfig(altitude_m=c["altitude_m"], seed=seed)
@@ -243,7 +250,7 @@ def _fly_step(controller, job: BenchJob, plan: BenchmarkPlan) -> tuple[dict, str
             g[channel] = step
         return g
 
-    rec, end = fly(controller, batch, seed=seed_of(job.realisation), steps=math.ceil(end_s / interval), goal_fn=goal,
+    rec, end = fly(controller, batch, seed=seed_of(job.realisation, job.split), steps=math.ceil(end_s / interval), goal_fn=goal,
                    altitude_m=job.condition["altitude_m"], airspeed_eas_mps=10.0)
     a = rec.arrays()
     if end["terminated"]:
@@ -267,7 +274,7 @@ def run_benchmark_job(job: BenchJob, policy: str | None = None) -> list[dict]:
     family = FAMILIES[job.family]
     controller = make_controller(job.controller, policy)
     row = {"family": job.family, "condition": condition_label(job.condition), "controller": job.controller,
-           "realisation": job.realisation, "seed": seed_of(job.realisation)}
+           "realisation": job.realisation, "seed": seed_of(job.realisation, job.split)}
     if job.family == "steps":
         metrics, ended = _fly_step(controller, job, plan)
         return [{**row, "ended_early": ended, "corner_free": True, **metrics}]
@@ -294,12 +301,15 @@ def run_benchmark_job(job: BenchJob, policy: str | None = None) -> list[dict]:
     return [{**row, "ended_early": "", "corner_free": True, **{k: float(metrics[k]) for k in family.metrics}}]
 
 
-def jobs_for(families: list[str], controllers: list[str], episodes: int, quick: bool = False) -> list[BenchJob]:
+def jobs_for(families: list[str], controllers: list[str], episodes: int, quick: bool = False,
+             split: str = "test") -> list[BenchJob]:
     """Every job: family x condition x realisation x controller (the controllers of one realisation
-    next to each other)."""
-    if not 1 <= episodes <= len(TEST_SEEDS):
-        raise ValueError(f"episodes must be 1 to {len(TEST_SEEDS)} (the test set's size), got {episodes}")
-    return [BenchJob(f, dict(c), ctl, k, quick) for f in families for c in FAMILIES[f].conditions
+    next to each other), on the seeds of ``split`` ("test" or "validation")."""
+    if split not in SPLITS:
+        raise ValueError(f"split must be one of {', '.join(SPLITS)}, got {split!r}")
+    if not 1 <= episodes <= len(SPLITS[split]):
+        raise ValueError(f"episodes must be 1 to {len(SPLITS[split])} (the {split} set's size), got {episodes}")
+    return [BenchJob(f, dict(c), ctl, k, quick, split) for f in families for c in FAMILIES[f].conditions
             for k in range(episodes) for ctl in controllers]
 
 
@@ -356,10 +366,12 @@ def _fmt(x: float) -> str:
 
 
 def render_markdown(summary: dict, controllers: list[str], plan: BenchmarkPlan, episodes: int, command: str,
-                    method: str) -> str:
-    lines = ["# Benchmark", "", f"`{command}`", "",
-             (f"{episodes} realisation(s) per condition, seeds {TEST_SEEDS.start} to {TEST_SEEDS.start + episodes - 1} "
-             f"of the frozen test set; paired differences with their 95 % interval ({method}); the verdict is for the "
+                    method: str, split: str = "test") -> str:
+    seeds = SPLITS[split]
+    what = "the frozen test set" if split == "test" else "the validation set (for choices; not the test set)"
+    lines = ["# Benchmark" + ("" if split == "test" else " (validation seeds)"), "", f"`{command}`", "",
+             (f"{episodes} realisation(s) per condition, seeds {seeds.start} to {seeds.start + episodes - 1} "
+             f"of {what}; paired differences with their 95 % interval ({method}); the verdict is for the "
              "first controller of the pair, lower being better for every metric here. Cells: mean ± standard "
              "deviation over the realisations."), "",
              (f"Windows: route families {plan.leg_window_s[0]:g}-{plan.leg_window_s[1]:g} s of the first leg "
@@ -449,4 +461,4 @@ def plan_dict(quick: bool) -> dict:
 
 __all__ = ["FAMILIES", "BenchJob", "BenchmarkPlan", "StressedRoute", "condition_label", "corner_free", "corner_window",
            "first_corner_s", "jobs_for",
-           "plan_dict", "render_markdown", "route_config", "run_benchmark_job", "step_metrics", "summarise"]
+           "plan_dict", "render_markdown", "route_config", "run_benchmark_job", "seed_of", "step_metrics", "summarise"]

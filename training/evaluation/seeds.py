@@ -4,11 +4,13 @@
 is the only tool that flies it; every tool that selects something (a trained seed with
 ``scripts/heldout.py --pick``, a candidate in ``scripts/ablation.py``, a setting from a sweep)
 refuses it through ``check_not_test_seed``, so that no choice is ever made on the flights the
-benchmark reports.
+benchmark reports. ``VALIDATION_SEEDS`` flies the benchmark's own families on other seeds, for
+choices made with the benchmark's measures (``scripts/benchmark.py --split validation``).
 
 | tool | seeds |
 |---|---|
 | benchmark (the test set) | ``TEST_SEEDS``: 900,000 to 900,999 |
+| benchmark, ``--split validation`` | ``VALIDATION_SEEDS``: 800,000 to 800,999 |
 | report's routes | ``report.ROUTE_SEED`` 11 |
 | report's doublets, suite's doublets | their altitude: 500, 5,000, 15,000 |
 | held-out flights (``--pick``) | ``heldout.SEEDS``: 101, 102, 103 |
@@ -28,6 +30,8 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 TEST_SEEDS = range(900_000, 901_000)  # the frozen test set: flown by the benchmark only
+VALIDATION_SEEDS = range(800_000, 801_000)  # the benchmark's families for selection
+SPLITS = {"test": TEST_SEEDS, "validation": VALIDATION_SEEDS}
 
 
 def _as_range(seeds: int | range | Iterable[int]) -> range | list[int]:
@@ -73,7 +77,8 @@ def tool_seed_ranges(episodes: int = 1000) -> dict[str, range]:
         **{f"held-out {k}": range(v, v + 1) for k, v in heldout.SEEDS.items()},
         "suite episodes": range(suite.EVAL_EPISODE_SEED, suite.EVAL_EPISODE_SEED + episodes),
         "sweep episodes": range(sweep.SWEEP_EPISODE_SEED, sweep.SWEEP_EPISODE_SEED + episodes),
+        "benchmark validation": VALIDATION_SEEDS,
     }
 
 
-__all__ = ["TEST_SEEDS", "check_not_test_seed", "overlaps_test_seeds", "tool_seed_ranges"]
+__all__ = ["SPLITS", "TEST_SEEDS", "VALIDATION_SEEDS", "check_not_test_seed", "overlaps_test_seeds", "tool_seed_ranges"]
