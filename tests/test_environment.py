@@ -445,3 +445,20 @@ def test_episode_recorder_metrics_and_plot(tmp_path):
     rec.save(tmp_path / "episode.npz")
     assert (tmp_path / "episode.png").stat().st_size > 10000
     assert np.load(tmp_path / "episode.npz")["true_state"].shape == (40, 13)
+
+
+def test_the_privileged_entries_hold_what_the_aircraft_cannot_measure():
+    from jsbsim_env.sim.model_check import SCALED_TERMS
+    from jsbsim_env.task.attitude import PRIVILEGED_NAMES, PRIVILEGED_SIZE
+
+    env = make_env(2, TaskConfig(surface_trim_gain=1.0, goal_trim_time_constant_s=10.0), seed=3, privileged=True)
+    td = env.rollout(20)
+    assert td["privileged"].shape == (2, 20, PRIVILEGED_SIZE) == (2, 20, len(PRIVILEGED_NAMES))
+    batch = env.base_env.batch
+    last = td["next", "privileged"][:, -1]
+    np.testing.assert_allclose(last.numpy(), batch.privileged(), rtol=0, atol=0)
+    scales = last[0, PRIVILEGED_NAMES.index(f"scale_{SCALED_TERMS[0]}")]
+    assert scales == pytest.approx((batch.cores[0].setup.scales.get(SCALED_TERMS[0], 1.0) - 1.0) / 0.2, abs=1e-6)
+    gust = last[:, PRIVILEGED_NAMES.index("gust_u"):PRIVILEGED_NAMES.index("gust_r") + 1]
+    assert gust.abs().sum() > 0  # the paper's turbulence is on
+    assert "privileged" not in make_env(1, TaskConfig(), seed=3).rollout(2).keys()  # noqa: SIM118 - a TensorDict

@@ -12,7 +12,7 @@ from jsbsim_env.control.observation import OBS_SIZE
 from jsbsim_env.control.stack import StackSettings
 from jsbsim_env.sim.core import CoreConfig
 from jsbsim_env.task.attitude import TaskConfig
-from jsbsim_env.task.versions import LATEST, V0, V1, VERSIONS, TaskVersion, task_version
+from jsbsim_env.task.versions import LATEST, V0, V1, V2, VERSIONS, TaskVersion, task_version
 
 
 def test_v0_is_the_papers_task_flown_by_the_network_alone():
@@ -34,8 +34,16 @@ def test_v1_is_the_shipped_controllers_task_and_flight_stack():
     assert {**task.core.__dict__, "delay_s": None} == {**CoreConfig().__dict__, "delay_s": None}
 
 
+def test_v2_trains_with_v1s_flight_stack_around_the_network():
+    assert V2.env_id == "SolarUAVAttitude-v2" and V2.flight_stack == V1.flight_stack
+    assert V2.trained_as_flown and V0.trained_as_flown and not V1.trained_as_flown
+    assert (V2.task.surface_trim_gain, V2.task.goal_trim_time_constant_s) == (2.0, 20.0)
+    # Everything else is v1's task.
+    assert {**V2.task.__dict__, "surface_trim_gain": 0.5, "goal_trim_time_constant_s": 0.0} == V1.task.__dict__
+
+
 def test_versions_are_listed_by_id_and_an_unknown_one_is_refused_naming_it():
-    assert list(VERSIONS) == ["SolarUAVAttitude-v0", "SolarUAVAttitude-v1"]
+    assert list(VERSIONS) == ["SolarUAVAttitude-v0", "SolarUAVAttitude-v1", "SolarUAVAttitude-v2"]
     assert all(isinstance(v, TaskVersion) and VERSIONS[v.env_id] is v for v in VERSIONS.values())
     assert task_version("SolarUAVAttitude-v1") is V1 and task_version("SolarUAVAttitude-v0") is V0
     with pytest.raises(ValueError, match="'SolarUAVAttitude-v9'") as err:
@@ -44,7 +52,7 @@ def test_versions_are_listed_by_id_and_an_unknown_one_is_refused_naming_it():
 
 
 @pytest.mark.filterwarnings("ignore:.*is out of date:DeprecationWarning")
-@pytest.mark.parametrize("version", [V0, V1], ids=lambda v: v.env_id)
+@pytest.mark.parametrize("version", [V0, V1, V2], ids=lambda v: v.env_id)
 def test_every_version_is_registered_with_gymnasium_on_import(version):
     assert version.env_id in gym.registry and jsbsim_env.ENV_ID in gym.registry
     env = gym.make(version.env_id)

@@ -222,3 +222,19 @@ def test_a_run_trains_in_its_task_versions_disturbances_and_evaluates_in_the_pap
     c.env.task = "SolarUAVAttitude-v7"
     with pytest.raises(ValueError, match="SolarUAVAttitude-v7"):
         Trainer(c, tmp_path / "unknown")
+
+
+def test_an_asymmetric_critic_trains_on_the_privileged_entries_and_the_policy_flies_without_them(tmp_path, tiny_config):
+    from jsbsim_env.control.policy import load_policy
+    from jsbsim_env.task.attitude import PRIVILEGED_SIZE
+
+    c = tiny_config()
+    c.env.task, c.network.asymmetric_critic = "SolarUAVAttitude-v2", True
+    run = tmp_path / "run"
+    trainer = Trainer(c, run)
+    assert all(critic.privileged_size == PRIVILEGED_SIZE for critic in trainer.sac.critics)
+    trainer.train()
+    data = load_checkpoint(run / "checkpoint.pt")["buffer"]["data"]
+    assert data["privileged"].shape == (192, PRIVILEGED_SIZE) and data["next", "privileged"].abs().sum() > 0
+    _, meta = load_policy(run / "best_policy.pt")
+    assert meta["task"] == "SolarUAVAttitude-v2" and meta["stack"].surface_trim_gain == 2.0

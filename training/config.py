@@ -207,6 +207,9 @@ class OptimSettings:
 class NetworkSettings:
     lstm_hidden: int = _f(64, "LSTM hidden units of the actor and of each critic", POSITIVE_INT)
     mlp_hidden: int = _f(256, "units of each of the two fully connected layers", POSITIVE_INT)
+    asymmetric_critic: bool = _f(False, "the critics also read what the aircraft cannot measure (true state, "
+                                        "turbulence, the episode's coefficients, delay, trims); the actor never does",
+                                 Flag())
 
 
 @dataclass

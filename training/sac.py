@@ -74,6 +74,8 @@ class RecurrentSAC(nn.Module):
         super().__init__()
         self.actor_net = actor_net
         self.critics = nn.ModuleList(critics)
+        # An asymmetric critic reads the batch's ``privileged`` entries (``training.networks.CriticNet``).
+        self.privileged = critics[0].privileged_size > 0
         self.target_critics = copy.deepcopy(self.critics).requires_grad_(False)
         self.log_alpha = nn.Parameter(torch.tensor(math.log(alpha)), requires_grad=auto_alpha)
         self.gamma, self.tau, self.target_entropy = gamma, tau, target_entropy
@@ -124,11 +126,14 @@ class RecurrentSAC(nn.Module):
                 next_loc, next_scale = loc[n:n + m].detach(), scale[n:n + m].detach()
             next_action, next_log_prob = tanh_normal_sample(next_loc, next_scale)
             next_input = batch["next", "observation"]
-            next_q = torch.min(torch.stack([c(next_input, next_action) for c in self.target_critics]), dim=0).values
+            next_privileged = batch["next", "privileged"] if self.privileged else None
+            next_q = torch.min(torch.stack([c(next_input, next_action, next_privileged)
+                                            for c in self.target_critics]), dim=0).values
             not_done = 1.0 - batch["next", "terminated"].to(obs.dtype)
             target = batch["next", "reward"] + self.gamma * not_done * (next_q - alpha.detach() * next_log_prob[:, None])
 
-        features = [c.encoder(batch["observation"]) for c in self.critics]
+        privileged = batch["privileged"] if self.privileged else None
+        features = [c.features(batch["observation"], privileged) for c in self.critics]
         q = [c.head(torch.cat([f, batch["action"]], dim=-1)) for c, f in zip(self.critics, features)]
         loss_qvalue = sum((qi - target).square() for qi in q).mean()
         q_pi = torch.min(torch.stack([_head_without_weight_gradients(c.head, torch.cat([f.detach(), action], dim=-1))

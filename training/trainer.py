@@ -34,7 +34,7 @@ from torchrl.envs.utils import ExplorationType, set_exploration_type, step_mdp
 
 from jsbsim_env.control.checked_io import DamagedFileError, checked_load
 from jsbsim_env.sim.core import CoreConfig
-from jsbsim_env.task.attitude import TaskConfig
+from jsbsim_env.task.attitude import PRIVILEGED_SIZE, TaskConfig
 from jsbsim_env.task.torchrl_env import make_env
 from jsbsim_env.task.versions import task_version
 from training.checkpoint import CheckpointError, atomic_save, config_fingerprint, load_checkpoint, save_checkpoint
@@ -50,9 +50,10 @@ STORED_KEYS = ("observation", "action", ("next", "observation"), ("next", "rewar
 EVAL_MAX_STEPS = 500  # interactions per evaluation episode during training
 
 
-def stored_keys(task: TaskConfig) -> tuple:
+def stored_keys(task: TaskConfig, privileged: bool = False) -> tuple:
     """What the replay buffer keeps of each transition."""
-    return STORED_KEYS + ((("next", "speed_free"),) if task.external_throttle > 0.0 else ())
+    return (STORED_KEYS + ((("next", "speed_free"),) if task.external_throttle > 0.0 else ())
+            + (("privileged", ("next", "privileged")) if privileged else ()))
 
 
 CSV_FIELDS = ("frames", "updates", "wall_s", "env_steps_per_s", "episodes", "episode_return", "episode_return_norm",
@@ -133,10 +134,12 @@ class Trainer:
         self.task_config = dataclasses.replace(version.task, core=core)
         self.eval_task_config = dataclasses.replace(self.task_config, core=eval_core)
         self.window = version.flight_stack.window_steps
-        self.env = make_env(c.env.num_envs, self.task_config, seed=c.seed, window=self.window)
+        privileged = c.network.asymmetric_critic
+        self.env = make_env(c.env.num_envs, self.task_config, seed=c.seed, window=self.window, privileged=privileged)
         self.actor = make_actor(c.network.lstm_hidden, c.network.mlp_hidden, self.env.action_spec).to(self.device)
-        critics = [make_critic(c.network.lstm_hidden, c.network.mlp_hidden).module.to(self.device) for _ in range(2)]
-        self.stored_keys = stored_keys(self.task_config)
+        critics = [make_critic(c.network.lstm_hidden, c.network.mlp_hidden, PRIVILEGED_SIZE if privileged else 0)
+                   .module.to(self.device) for _ in range(2)]
+        self.stored_keys = stored_keys(self.task_config, privileged)
         self.sac = RecurrentSAC(
             self.actor.module[0].module, critics, gamma=c.optim.gamma, tau=c.optim.tau, alpha=c.optim.alpha,
             auto_alpha=c.optim.auto_alpha, target_entropy=c.optim.target_entropy, lr=c.optim.lr,

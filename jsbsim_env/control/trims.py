@@ -130,7 +130,7 @@ class GoalTrim:
             raise ValueError(f"goal trim limit and activity bound must lie in (0, 10] deg, got {limit_deg}, "
                              f"{active_below_deg}")
         self.time_constant_s = float(time_constant_s)
-        self._limit_rad = math.radians(limit_deg)
+        self.limit_rad = math.radians(limit_deg)
         self._active_rad = math.radians(active_below_deg)
         self.reset()
 
@@ -145,7 +145,7 @@ class GoalTrim:
         """One control interval on a measured state (``core.STATE_NAMES``) against the goal asked
         for; returns the offsets (rad)."""
         _check_interval(dt_s)
-        k, lim = dt_s / self.time_constant_s, self._limit_rad
+        k, lim = dt_s / self.time_constant_s, self.limit_rad
         for j, state in enumerate((_ROLL, _PITCH)):
             error = float(goal[j]) - float(measurement[state])
             if abs(error) < self._active_rad:  # a NaN error integrates nothing either

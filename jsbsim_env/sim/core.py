@@ -417,6 +417,16 @@ class FlightCore:
         for s, v in zip(self._set_gust_rate, self._gust_rate[k]):
             s(gain * v)
 
+    def gust_now(self) -> list[float]:
+        """The turbulence sample held over this control interval: body-axis wind u, v, w (m/s) and
+        rates p, q, r (rad/s); zeros without turbulence. Not measurable on the aircraft: for a
+        critic's privileged information and for analysis."""
+        if self.turbulence is None:
+            return [0.0] * 6
+        k = min(self.step_index, len(self._gust_wind) - 1)
+        g = self.turbulence_gain
+        return [g * v for v in self._gust_wind[k]] + [g * v for v in self._gust_rate[k]]
+
     # ------------------------------------------------------------------ measurements
 
     def true_state(self) -> list[float]:

@@ -20,6 +20,11 @@ every command and takes them off the observed surface positions, as the flight r
 ``TaskConfig.goal_trim_time_constant_s`` > 0, its goal trim (``GoalTrim``) moves the goal the
 policy observes, step for step as ``jsbsim_env.control.stack.ControlStack`` does in flight; the
 reward is always against the goal asked for.
+
+``AttitudeTaskBatch.privileged`` gives, per aircraft, what the aircraft cannot measure
+(``PRIVILEGED_NAMES``): the true state, the turbulence, the episode's coefficient scales, its delay
+and control interval, the trims' states and the command the actuators hold. A critic may read it
+(an asymmetric actor-critic); the policy never does.
 """
 
 from __future__ import annotations
@@ -30,6 +35,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from jsbsim_env.control.observation import (
+    ACTION_OFFSET,
+    ACTION_SCALE,
     ACTION_SIZE,
     ACTION_TOLERANCE,
     GOAL_NAMES,
@@ -37,17 +44,20 @@ from jsbsim_env.control.observation import (
     ActionError,
     action_list_to_command,
     initial_last_action,
+    scale_row,
 )
-from jsbsim_env.control.pid import GainSchedule, PIDAttitudeController
+from jsbsim_env.control.pid import SURFACE_INTEGRATOR_LIMIT_DEG, GainSchedule, PIDAttitudeController
 from jsbsim_env.control.stack import observation_row
 from jsbsim_env.control.trims import GoalTrim, SurfaceTrim, check_goal_trim_time_constant, check_surface_trim_gain
 from jsbsim_env.sim.core import (
     N_STATE,
+    STATE_NAMES,
     CoreConfig,
     FlightCore,
     envelope_code,
     termination_reason,
 )
+from jsbsim_env.sim.model_check import SCALED_TERMS
 
 GOAL_LOW = np.array([math.radians(-5.0), math.radians(-10.0), 8.0])
 GOAL_HIGH = np.array([math.radians(5.0), math.radians(10.0), 12.0])
@@ -61,6 +71,18 @@ EAS_INDEX = ACHIEVED_INDEX[2]
 # Errors at which each penalty of Eq. 22 saturates (rad, rad, m/s): beyond them a goal error
 # no longer changes the reward.
 PENALTY_SATURATION = (math.radians(1.5), math.radians(1.8), 1.5)
+
+# What ``AttitudeTaskBatch.privileged`` gives, each scaled to about unit size: the true state as the
+# observation scales the measured one; turbulence by its 0.5 m/s and 0.005 rad/s; each coefficient
+# scale as (scale - 1) / 0.2 (Table 4's range to +-1); delay and control interval about their
+# nominal 0.08 s and 0.05 s; trims over their limits; the command held as an action.
+PRIVILEGED_NAMES = (*(f"true_{n}" for n in STATE_NAMES), "gust_u", "gust_v", "gust_w", "gust_p", "gust_q", "gust_r",
+                    *(f"scale_{t}" for t in SCALED_TERMS), "delay", "control_interval", "surface_trim_aileron",
+                    "surface_trim_elevator", "goal_trim_roll", "goal_trim_pitch", "held_aileron", "held_elevator",
+                    "held_rudder", "held_throttle")
+PRIVILEGED_SIZE = len(PRIVILEGED_NAMES)
+_NO_TRIM = [0.0, 0.0]
+_ACTION_OFFSET, _ACTION_SCALE = ACTION_OFFSET.tolist(), ACTION_SCALE.tolist()
 
 
 def _penalty(x: float, cap: float, tail: float) -> float:
@@ -335,6 +357,27 @@ class AttitudeTaskBatch:
         obs = self._obs_lists[i] = observation_row(self.states[i], self.last_actions[i], goal, trim,
                                                    self.noise[i] + _NO_EXTRA_NOISE)
         return obs
+
+    def privileged(self) -> np.ndarray:
+        """What the aircraft cannot measure, N x ``PRIVILEGED_SIZE`` float32 (``PRIVILEGED_NAMES``;
+        non-finite values of an ended episode as 0), for a critic: never the policy's input."""
+        rows = []
+        pad = [0.0] * (OBS_SIZE - N_STATE)
+        for i, core in enumerate(self.cores):
+            setup = core.setup
+            gust = core.gust_now()
+            scales = setup.scales
+            surface = [t / SURFACE_INTEGRATOR_LIMIT_DEG for t in self._trims[i].trim_deg] \
+                if self._trims is not None else _NO_TRIM
+            goal = [o / self._goal_trims[i].limit_rad for o in self._goal_trims[i].offset_rad] \
+                if self._goal_trims is not None else _NO_TRIM
+            held = [(c - o) / k for c, o, k in zip(core.applied_command, _ACTION_OFFSET, _ACTION_SCALE)]
+            rows.append(scale_row(self.states[i] + pad)[:N_STATE]
+                        + [g / 0.5 for g in gust[:3]] + [g / 0.005 for g in gust[3:]]
+                        + [(scales.get(t, 1.0) - 1.0) / 0.2 for t in SCALED_TERMS]
+                        + [(setup.delay_s - 0.08) / 0.04, (setup.control_interval_s - 0.05) / 0.01]
+                        + surface + goal + held)
+        return np.nan_to_num(np.array(rows, dtype=np.float32))
 
     def measurements(self) -> np.ndarray:
         """Measured states (true state plus sensor noise), N x 13."""

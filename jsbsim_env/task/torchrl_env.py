@@ -16,7 +16,14 @@ from torchrl.envs.transforms import CatFrames, UnsqueezeTransform
 
 from jsbsim_env.control.observation import ACTION_SIZE, ActionError
 from jsbsim_env.control.stack import StackSettings
-from jsbsim_env.task.attitude import ACHIEVED_INDEX, REWARD_TERMS, AttitudeTaskBatch, TaskConfig, check_num_envs
+from jsbsim_env.task.attitude import (
+    ACHIEVED_INDEX,
+    PRIVILEGED_SIZE,
+    REWARD_TERMS,
+    AttitudeTaskBatch,
+    TaskConfig,
+    check_num_envs,
+)
 
 OBSERVATION_WINDOW = StackSettings().window_steps  # the paper's 8 (Section 3.3): the policy sees the last 8
 
@@ -36,12 +43,14 @@ class SolarUAVAttitudeEnv(EnvBase):
     (rad), V_eas (m/s) and sideslip (rad) the reward was computed from (``task.ACHIEVED_INDEX``),
     which lets a learner recompute the reward for another goal. Where some episodes' throttle is
     flown by a speed hold (``TaskConfig.external_throttle``), ``speed_free`` (num_envs, 1) marks them:
-    their reward has no airspeed term and their EAS goal is not a goal to relabel.
+    their reward has no airspeed term and their EAS goal is not a goal to relabel. With
+    ``privileged``, ``privileged`` (num_envs, ``PRIVILEGED_SIZE``) holds what the aircraft cannot
+    measure (``AttitudeTaskBatch.privileged``), for an asymmetric critic.
     """
 
     batch_locked = True
 
-    def __init__(self, num_envs: int = 8, config: TaskConfig | None = None, seed: int = 0):
+    def __init__(self, num_envs: int = 8, config: TaskConfig | None = None, seed: int = 0, privileged: bool = False):
         num_envs = check_num_envs(num_envs)  # before TorchRL builds a batch of it
         # The simulation runs on the CPU; collectors move the data to a training device.
         super().__init__(device="cpu", batch_size=torch.Size([num_envs]))
@@ -57,6 +66,9 @@ class SolarUAVAttitudeEnv(EnvBase):
         self._speed_free = self.batch.config.external_throttle > 0.0
         if self._speed_free:
             specs["speed_free"] = Categorical(2, shape=(*n, 1), dtype=torch.bool)
+        self._privileged = bool(privileged)
+        if self._privileged:
+            specs["privileged"] = Unbounded(shape=(*n, PRIVILEGED_SIZE), dtype=torch.float32)
         self.observation_spec = Composite(specs, shape=n)
         self.action_spec = Bounded(low=-1.0, high=1.0, shape=(*n, ACTION_SIZE), dtype=torch.float32)
         self.reward_spec = Unbounded(shape=(*n, 1), dtype=torch.float32)
@@ -116,20 +128,23 @@ class SolarUAVAttitudeEnv(EnvBase):
                   "terminated": terminated_t, "truncated": truncated_t, "done": terminated_t | truncated_t}
         if self._speed_free:
             values["speed_free"] = torch.tensor(self.batch.external_throttle).reshape(n, 1)
+        if self._privileged:
+            values["privileged"] = torch.from_numpy(self.batch.privileged())
         return TensorDict._new_unsafe(values, batch_size=self.batch_size, device=self.device)
 
 
 def make_env(num_envs: int = 8, config: TaskConfig | None = None, seed: int = 0,
-             window: int = OBSERVATION_WINDOW) -> TransformedEnv:
+             window: int = OBSERVATION_WINDOW, privileged: bool = False) -> TransformedEnv:
     """The training environment: the 8-step observation window (``observation`` becomes
     (num_envs, window, 20), oldest first), a step counter and the episode reward sum. ``num_envs``
-    and ``window`` must be whole numbers >= 1 (the window at most 64, as a policy file's)."""
+    and ``window`` must be whole numbers >= 1 (the window at most 64, as a policy file's);
+    ``privileged`` adds the ``privileged`` entry (the present step's, no window)."""
     num_envs = check_num_envs(num_envs)
     try:
         StackSettings(window_steps=window)
     except ValueError:
         raise ValueError(f"window must be a whole number of steps in [1, 64], got {window!r}") from None
-    env = SolarUAVAttitudeEnv(num_envs, config, seed)
+    env = SolarUAVAttitudeEnv(num_envs, config, seed, privileged)
     return TransformedEnv(env, Compose(
         UnsqueezeTransform(dim=-2, in_keys=["observation"], out_keys=["observation"]),
         CatFrames(N=window, dim=-2, in_keys=["observation"], out_keys=["observation"]),

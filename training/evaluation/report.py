@@ -78,7 +78,8 @@ def _controllers(policy_path) -> tuple[dict[str, Callable[[], object]], Path | N
     from jsbsim_env.control.factory import make_controller
 
     makers: dict[str, Callable[[], object]] = {"PID": PIDAttitudeController}
-    makers.update({name: (lambda n=name.lower(): make_controller(n)) for name in EXTRA_CONTROLLERS})
+    factory_names = {name: name.lower() for name in EXTRA_CONTROLLERS}  # "LQI_tuned" flies "lqi_tuned"
+    makers.update({name: (lambda n=factory: make_controller(n)) for name, factory in factory_names.items()})
     from jsbsim_env.control.policy import PolicyFileError, shipped_policy_path
 
     path = Path(policy_path) if policy_path is not None else shipped_policy_path()
