@@ -19,6 +19,7 @@ from training.evaluation.benchmark import (
     jobs_for,
     route_config,
     step_metrics,
+    verdict_counts,
 )
 from training.evaluation.seeds import TEST_SEEDS
 
@@ -111,7 +112,11 @@ def test_the_benchmark_command_writes_its_outputs_and_ray_gives_the_same_numbers
     assert d["n"] == 2 and d["verdict"] in ("better", "worse", "no difference")
     for name in ("benchmark.md", "command.txt", "turbulence.png", "steps.png"):
         assert (tmp_path / "local" / name).stat().st_size > 0
-    assert "| 10 km | rmse_roll_deg |" in (tmp_path / "local" / "benchmark.md").read_text()
+    text = (tmp_path / "local" / "benchmark.md").read_text()
+    assert "| 10 km | rmse_roll_deg |" in text
+    n = verdict_counts(local["summary"], "turbulence", "policy", "pid")
+    assert sum(n.values()) == 3 * 3  # three altitudes, three scores
+    assert f"| turbulence | {n['better']} better, {n['worse']} worse, {n['no difference']} = |" in text
     assert (tmp_path / "local" / "command.txt").read_text().startswith("python scripts/benchmark.py --controllers")
     # Never overwritten without --overwrite, checked before the first flight.
     assert script.main([*common, "--out", str(tmp_path / "local")]) == 2

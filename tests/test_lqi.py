@@ -140,3 +140,7 @@ def test_the_commands_take_the_lqi_by_name(load_script):
     from training.evaluation.report import CONTROLLERS, EXTRA_CONTROLLERS
 
     assert "LQI" in EXTRA_CONTROLLERS and "LQI" not in CONTROLLERS  # the report flies it when named
+    assert {name.lower() for name in EXTRA_CONTROLLERS} | {"pid", "policy"} == set(CONTROLLER_NAMES)
+    bench = load_script("loop_bench").build_parser()
+    (choices,) = [a.choices for a in bench._actions if a.dest == "controller"]
+    assert tuple(choices) == CONTROLLER_NAMES  # spelled out there, to parse without loading the simulation

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from jsbsim_env.bench.link import Faults
+from jsbsim_env.control.factory import CONTROLLER_NAMES
 from jsbsim_env.bench.wire import (
     CONTROLLER_SYSTEM_ID,
     PLANT_SYSTEM_ID,
@@ -171,7 +172,7 @@ def main(argv: list[str] | None = None) -> int:
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--device", required=True, help="serial device path (a pty of the bench, or /dev/ttyUSB0)")
     parser.add_argument("--baud", type=_positive(int), default=115200, help="line rate, bit/s")
-    parser.add_argument("--controller", default="policy", choices=("policy", "pid", "lqi"))
+    parser.add_argument("--controller", default="policy", choices=CONTROLLER_NAMES)
     parser.add_argument("--policy", default=None, help="policy file (.pt); the shipped policy when omitted")
     parser.add_argument("--rate-hz", type=_positive(float), default=25.0, help="control frame rate the controller assumes, Hz")
     parser.add_argument("--faults", default="", help="controller-side faults: stall_at=S,stall_s=D (flight time, s)")

@@ -56,6 +56,7 @@ from jsbsim_env.bench.wire import (
     is_crc_error,
     new_link,
 )
+from jsbsim_env.control.factory import CONTROLLER_NAMES
 from jsbsim_env.control.pid import PIDAttitudeController
 from jsbsim_env.missions import MissionResult, RouteConfig, RouteFlight
 from jsbsim_env.sim.core import COMMAND_HIGH, COMMAND_LOW
@@ -135,8 +136,8 @@ class BenchConfig:
     def __post_init__(self):
         if self.mode not in ("realtime", "lockstep"):
             raise ValueError(f"mode must be 'realtime' or 'lockstep', got {self.mode!r}")
-        if self.controller not in ("policy", "pid", "lqi"):
-            raise ValueError(f"controller must be 'policy', 'pid' or 'lqi', got {self.controller!r}")
+        if self.controller not in CONTROLLER_NAMES:
+            raise ValueError(f"controller must be one of {', '.join(CONTROLLER_NAMES)}, got {self.controller!r}")
         if not 0.0 < self.duration_s <= MAX_DURATION_S:  # NaN fails too
             raise ValueError(f"duration must be positive and at most {MAX_DURATION_S:g} s, got {self.duration_s} s")
         for name, low in (("baud", 1), ("seed", 0), ("timeout_frames", 0), ("recover_frames", 1)):

@@ -41,7 +41,7 @@ from jsbsim_env.missions import MissionResult, RouteConfig
 from jsbsim_env.sim import disturbances as dist
 from jsbsim_env.sim.core import CoreConfig
 from training.evaluation.seeds import SPLITS
-from training.evaluation.stats import LOWER_IS_BETTER, paired_difference
+from training.evaluation.stats import LOWER_IS_BETTER, VERDICTS, paired_difference
 from training.evaluation.sweep import AXES, AXIS_UNITS
 
 
@@ -348,6 +348,16 @@ def summarise(rows: list[dict], controllers: list[str], method: str = "t") -> di
     return out
 
 
+def verdict_counts(summary: dict, family: str, a: str, b: str) -> dict[str, int]:
+    """How many of ``family``'s metrics (each condition's each score) the pair ``a - b`` finds
+    better, worse and not different at 95 % for ``a``."""
+    counts = dict.fromkeys(VERDICTS, 0)
+    for entry in summary[family].values():
+        for d in entry["pairs"][f"{a} - {b}"].values():
+            counts[d["verdict"]] += 1
+    return counts
+
+
 def window_text(window: str, plan: BenchmarkPlan) -> str:
     if window == "corner":
         return (f"{plan.corner_window_s:g} s from the first leg change (the turn onto the second leg), found on "
@@ -381,6 +391,16 @@ def render_markdown(summary: dict, controllers: list[str], plan: BenchmarkPlan, 
     if len(controllers) > 1:
         first, others = controllers[0], controllers[1:]
         lines += [f"## {first} against each other controller", "",
+                  (f"Counts of the metrics (one per condition and score) where {first} is better, worse, or "
+                   "not different at 95 %, per family:"), "",
+                  "| family | " + " | ".join(others) + " |", "|" + "---|" * (1 + len(others))]
+        for name in summary:
+            cells = []
+            for other in others:
+                n = verdict_counts(summary, name, first, other)
+                cells.append(f"{n['better']} better, {n['worse']} worse, {n['no difference']} =")
+            lines.append(f"| {name} | " + " | ".join(cells) + " |")
+        lines += ["",
                   (f"The paired difference {first} − other and its verdict for {first}: better, worse, or = (no "
                    "difference at 95 %). Every pair's interval is in the families' tables below."), "",
                   "| family | condition | metric | " + " | ".join(others) + " |", "|" + "---|" * (3 + len(others))]
@@ -461,4 +481,5 @@ def plan_dict(quick: bool) -> dict:
 
 __all__ = ["FAMILIES", "BenchJob", "BenchmarkPlan", "StressedRoute", "condition_label", "corner_free", "corner_window",
            "first_corner_s", "jobs_for",
-           "plan_dict", "render_markdown", "route_config", "run_benchmark_job", "seed_of", "step_metrics", "summarise"]
+           "plan_dict", "render_markdown", "route_config", "run_benchmark_job", "seed_of", "step_metrics", "summarise",
+           "verdict_counts"]
