@@ -25,7 +25,6 @@ from pathlib import Path
 import numpy as np
 
 from jsbsim_env.bench.link import Faults
-from jsbsim_env.control.factory import CONTROLLER_NAMES
 from jsbsim_env.bench.wire import (
     CONTROLLER_SYSTEM_ID,
     PLANT_SYSTEM_ID,
@@ -35,6 +34,7 @@ from jsbsim_env.bench.wire import (
     is_crc_error,
     new_link,
 )
+from jsbsim_env.control.factory import CONTROLLER_NAMES
 
 # A gap between frames longer than this (the plant's failsafe timeout) starts the controller afresh:
 # its memory of the flight before the gap no longer describes the aircraft.
