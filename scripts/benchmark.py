@@ -4,6 +4,7 @@
     python scripts/benchmark.py --controllers policy,pid --backend ray --out runs/benchmark_ray
     python scripts/benchmark.py --controllers pid,policy --families turbulence,steps --quick --out /tmp/bench
     python scripts/benchmark.py --split validation --controllers policy,lqi_tuned --out runs/benchmark_validation
+    python scripts/benchmark.py --split validation --controllers policy --compare runs/a/best_policy.pt --out runs/ab
 
 Every controller flies the same realisations (seeds of ``training.evaluation.seeds.TEST_SEEDS``,
 which only this command flies) of each flight family (``training.evaluation.benchmark``: turbulence
@@ -61,6 +62,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--controllers", default=",".join(CONTROLLER_NAMES),
                    help=f"comma-separated, any of: {', '.join(CONTROLLER_NAMES)}")
     p.add_argument("--policy", default=None, help="policy file (.pt); the shipped policy when omitted")
+    p.add_argument("--compare", nargs="+", type=Path, default=(), metavar="POLICY",
+                   help="more policy files, each flown as a controller of its own (named by its run folder, or its "
+                        "file name), paired with the others: for choosing between trained policies on --split "
+                        "validation")
     p.add_argument("--episodes", type=number_type(int, 1, len(TEST_SEEDS)), default=20,
                    help=f"realisations per condition of each family (1 to {len(TEST_SEEDS)}, the test set's size)")
     p.add_argument("--split", choices=tuple(SPLITS), default="test",
@@ -91,6 +96,19 @@ def _names(text: str, allowed, what: str) -> list[str]:
     return names
 
 
+def compare_labels(paths, controllers: list[str]) -> dict[str, str]:
+    """``--compare``'s files by label: a run's ``best_policy.pt`` by its run folder's name, another
+    file by its name without suffix; a label that repeats, or names a controller, is refused."""
+    labels: dict[str, str] = {}
+    for path in paths:
+        label = path.parent.name if path.name == "best_policy.pt" and path.parent.name else path.stem
+        if label in labels or label in controllers:
+            raise ValueError(f"two controllers would be named {label!r} ({path}); give files whose run folders or "
+                             "names differ")
+        labels[label] = str(path)
+    return labels
+
+
 def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     try:
@@ -103,17 +121,24 @@ def main(argv=None) -> int:
     except ValueError as err:
         print(f"benchmark: {err}", file=sys.stderr)
         return 2
-    if "policy" in controllers:  # read and checked once here, not in every job
+    try:
+        compared = compare_labels(args.compare, controllers)
+    except ValueError as err:
+        print(f"benchmark: --compare: {err}", file=sys.stderr)
+        return 2
+    if "policy" in controllers or compared:  # read and checked once here, not in every job
         from jsbsim_env.control.policy import PolicyFileError, load_policy, shipped_policy_path
 
         try:
-            load_policy(args.policy or shipped_policy_path())
+            for path in ([args.policy or shipped_policy_path()] if "policy" in controllers else []) + list(compared.values()):
+                load_policy(path)
         except PolicyFileError as err:
             print(f"benchmark: {err}", file=sys.stderr)
             return 2
     from tqdm import tqdm
 
-    jobs = jobs_for(families, controllers, args.episodes, args.quick, args.split)
+    jobs = jobs_for(families, controllers, args.episodes, args.quick, args.split, compared)
+    controllers = controllers + list(compared)
     bar = tqdm(total=len(jobs), desc=f"benchmark ({args.backend})", unit="flight", file=sys.stderr,
                disable=args.no_progress or args.json)
     started = time.perf_counter()

@@ -143,3 +143,24 @@ def test_a_flight_that_leaves_its_leg_inside_the_window_counts_as_an_early_end(m
     (row,) = benchmark.run_benchmark_job(job)
     assert row["ended_early"].startswith("left the first leg") and row["corner_free"]
     assert all(math.isnan(row[k]) for k in benchmark.FAMILIES["calm"].metrics)
+
+
+def test_compare_flies_more_policy_files_as_controllers_of_their_own(tmp_path, capsys, load_script, untrained_policy):
+    script = load_script("benchmark")
+    a = untrained_policy(tmp_path / "runA" / "best_policy.pt", seed=1)
+    b = untrained_policy(tmp_path / "candidate.pt", seed=2)
+    assert script.compare_labels([a, b], ["pid"]) == {"runA": str(a), "candidate": str(b)}
+    with pytest.raises(ValueError, match="'candidate'"):
+        script.compare_labels([b, b], ["pid"])
+    jobs = jobs_for(["calm"], ["pid"], 1, True, "validation", {"runA": str(a)})
+    assert [(j.controller, j.policy_path, j.label) for j in jobs[:2]] == [("pid", None, None), ("policy", str(a), "runA")]
+    out = tmp_path / "bench"
+    assert script.main(["--controllers", "pid", "--compare", str(a), str(b), "--families", "calm", "--episodes", "2",
+                        "--quick", "--split", "validation", "--json", "--out", str(out)]) == 0
+    summary = json.loads(capsys.readouterr().out)["summary"]["calm"]["1 km"]
+    assert set(summary["controllers"]) == {"pid", "runA", "candidate"} and "runA - candidate" in summary["pairs"]
+    record = json.loads((out / "benchmark.json").read_text())
+    assert record["split"] == "validation" and {r["seed"] for r in record["rows"]} == {800_000, 800_001}
+    assert script.main(["--controllers", "pid", "--compare", str(tmp_path / "missing.pt"), "--out",
+                        str(tmp_path / "x")]) == 2
+    assert "missing.pt" in capsys.readouterr().err

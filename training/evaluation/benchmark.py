@@ -139,6 +139,8 @@ class BenchJob:
     realisation: int
     quick: bool = False
     split: str = "test"  # the seed range (``seeds.SPLITS``): the frozen test set, or validation for choices
+    policy_path: str | None = None  # a "policy" flown from this file instead of the run's --policy
+    label: str | None = None  # its name in the rows and tables (the controller's name when None)
 
 
 def seed_of(realisation: int, split: str = "test") -> int:
@@ -272,8 +274,8 @@ def run_benchmark_job(job: BenchJob, policy: str | None = None) -> list[dict]:
     TrimTable.forget_shared()  # the job's numbers must not depend on what this process flew before
     plan = BenchmarkPlan.quick() if job.quick else BenchmarkPlan()
     family = FAMILIES[job.family]
-    controller = make_controller(job.controller, policy)
-    row = {"family": job.family, "condition": condition_label(job.condition), "controller": job.controller,
+    controller = make_controller(job.controller, job.policy_path or policy)
+    row = {"family": job.family, "condition": condition_label(job.condition), "controller": job.label or job.controller,
            "realisation": job.realisation, "seed": seed_of(job.realisation, job.split)}
     if job.family == "steps":
         metrics, ended = _fly_step(controller, job, plan)
@@ -302,15 +304,17 @@ def run_benchmark_job(job: BenchJob, policy: str | None = None) -> list[dict]:
 
 
 def jobs_for(families: list[str], controllers: list[str], episodes: int, quick: bool = False,
-             split: str = "test") -> list[BenchJob]:
+             split: str = "test", policies: dict[str, str] | None = None) -> list[BenchJob]:
     """Every job: family x condition x realisation x controller (the controllers of one realisation
-    next to each other), on the seeds of ``split`` ("test" or "validation")."""
+    next to each other), on the seeds of ``split`` ("test" or "validation"). ``policies`` adds, after
+    ``controllers``, a policy file per label (``--compare``)."""
     if split not in SPLITS:
         raise ValueError(f"split must be one of {', '.join(SPLITS)}, got {split!r}")
     if not 1 <= episodes <= len(SPLITS[split]):
         raise ValueError(f"episodes must be 1 to {len(SPLITS[split])} (the {split} set's size), got {episodes}")
-    return [BenchJob(f, dict(c), ctl, k, quick, split) for f in families for c in FAMILIES[f].conditions
-            for k in range(episodes) for ctl in controllers]
+    flown = [(c, None, None) for c in controllers] + [("policy", str(p), label) for label, p in (policies or {}).items()]
+    return [BenchJob(f, dict(c), ctl, k, quick, split, path, label) for f in families for c in FAMILIES[f].conditions
+            for k in range(episodes) for ctl, path, label in flown]
 
 
 def summarise(rows: list[dict], controllers: list[str], method: str = "t") -> dict:
