@@ -238,3 +238,34 @@ def test_an_asymmetric_critic_trains_on_the_privileged_entries_and_the_policy_fl
     assert data["privileged"].shape == (192, PRIVILEGED_SIZE) and data["next", "privileged"].abs().sum() > 0
     _, meta = load_policy(run / "best_policy.pt")
     assert meta["task"] == "SolarUAVAttitude-v2" and meta["stack"].surface_trim_gain == 2.0
+
+
+@pytest.mark.parametrize("encoder", ["gru", "mlp"])
+def test_each_encoder_trains_and_its_policy_file_flies_with_it(tmp_path, tiny_config, encoder):
+    import numpy as np
+
+    from jsbsim_env.control.network import ENCODERS, RecurrentEncoder, WindowMLPEncoder
+    from jsbsim_env.control.policy import PolicyRuntime, load_policy
+    from training.config import ENCODERS as CONFIG_ENCODERS
+
+    assert CONFIG_ENCODERS == ENCODERS
+    c = tiny_config()
+    c.network.encoder = encoder
+    run = tmp_path / "run"
+    trainer = Trainer(c, run)
+    kind = {"gru": RecurrentEncoder, "mlp": WindowMLPEncoder}[encoder]
+    assert isinstance(trainer.actor.module[0].module.encoder, kind)
+    assert encoder != "gru" or isinstance(trainer.actor.module[0].module.encoder.gru, torch.nn.GRU)
+    assert all(isinstance(critic.encoder, kind) for critic in trainer.sac.critics)
+    trainer.train()
+    actor, meta = load_policy(run / "best_policy.pt")
+    assert meta["network"]["encoder"] == encoder and isinstance(actor.net.encoder, kind)
+    runtime = PolicyRuntime(run / "best_policy.pt")  # exported to ONNX, as the benchmark flies it
+    measurement = np.array([1000.0, 0.0, 0.02, 0.0, 0.0, 0.0, 10.0, 0.05, 0.0, 0.0, 0.0, 0.0, 0.4])
+    command = runtime.update(0.04, measurement, np.array([0.0, 0.0, 10.0]))
+    assert command.shape == (4,) and np.all(np.isfinite(command))
+
+
+def test_an_unknown_encoder_is_refused_by_name():
+    with pytest.raises(ValueError, match="network.encoder must be one of lstm, gru, mlp, got 'transformer'"):
+        TrainConfig.from_dict({"network": {"encoder": "transformer"}})

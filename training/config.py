@@ -28,6 +28,9 @@ from typing import Any, get_args, get_origin, get_type_hints
 from jsbsim_env.task.versions import LATEST, task_version
 
 SEED_MAX = 2**64 - 1  # the largest seed torch takes
+# jsbsim_env.control.network.ENCODERS, spelled out: that module loads torch, which a configuration
+# (and a script's --help) need not wait for.
+ENCODERS = ("lstm", "gru", "mlp")
 
 
 # ---------------------------------------------------------------------- allowed values
@@ -120,6 +123,20 @@ class Text(Allowed):
 
 
 @dataclass(frozen=True)
+class Choice(Allowed):
+    """One of ``options`` (strings)."""
+
+    options: tuple[str, ...]
+
+    @property
+    def text(self) -> str:
+        return "one of " + ", ".join(self.options)
+
+    def admits(self, value) -> bool:
+        return isinstance(value, str) and value in self.options
+
+
+@dataclass(frozen=True)
 class TaskName(Allowed):
     """A task version this package has (``task_version``'s error lists them)."""
 
@@ -205,7 +222,10 @@ class OptimSettings:
 
 @dataclass
 class NetworkSettings:
-    lstm_hidden: int = _f(64, "LSTM hidden units of the actor and of each critic", POSITIVE_INT)
+    encoder: str = _f("lstm", "the actor's and each critic's encoder of the observation window: lstm (the paper's), "
+                              "gru, or mlp (the window flattened through one ReLU layer)", Choice(ENCODERS))
+    lstm_hidden: int = _f(64, "units of the encoder (LSTM, GRU or window MLP) of the actor and of each critic",
+                          POSITIVE_INT)
     mlp_hidden: int = _f(256, "units of each of the two fully connected layers", POSITIVE_INT)
     asymmetric_critic: bool = _f(False, "the critics also read what the aircraft cannot measure (true state, "
                                         "turbulence, the episode's coefficients, delay, trims); the actor never does",

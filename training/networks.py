@@ -1,6 +1,7 @@
 """Recurrent actor and critics of the paper's Section 3.3.
 
-Both read the last ``window`` observations, oldest first, through one LSTM layer (64 units) and
+Both read the last ``window`` observations, oldest first, through one LSTM layer (64 units; or
+the GRU or windowed MLP of ``jsbsim_env.control.network.ENCODERS``, ``network.encoder``) and
 continue from its last output: the actor with two 256-unit ReLU layers to the mean and standard
 deviation of a tanh-squashed Gaussian, each critic by concatenating the action and two 256-unit
 ReLU layers to Q. The actor and the two critics each have their own LSTM. An asymmetric critic
@@ -16,7 +17,7 @@ from tensordict.nn import TensorDictModule
 from torch import nn
 from torchrl.modules import ProbabilisticActor, TanhNormal
 
-from jsbsim_env.control.network import ActorNet, LSTMEncoder, mlp
+from jsbsim_env.control.network import ActorNet, make_encoder, mlp
 from jsbsim_env.control.observation import ACTION_SIZE, OBS_SIZE
 
 
@@ -26,10 +27,10 @@ class CriticNet(nn.Module):
     LSTM's output before the head."""
 
     def __init__(self, lstm_hidden: int = 64, mlp_hidden: int = 256, obs_size: int = OBS_SIZE,
-                 action_size: int = ACTION_SIZE, privileged_size: int = 0):
+                 action_size: int = ACTION_SIZE, privileged_size: int = 0, encoder: str = "lstm", window: int = 8):
         super().__init__()
         self.privileged_size = privileged_size
-        self.encoder = LSTMEncoder(obs_size, lstm_hidden)
+        self.encoder = make_encoder(encoder, obs_size, lstm_hidden, window)
         self.head = mlp(lstm_hidden + privileged_size + action_size, mlp_hidden, 1)
 
     def features(self, window: torch.Tensor, privileged: torch.Tensor | None = None) -> torch.Tensor:
@@ -41,17 +42,20 @@ class CriticNet(nn.Module):
         return self.head(torch.cat([self.features(window, privileged), action], dim=-1))
 
 
-def make_actor(lstm_hidden: int = 64, mlp_hidden: int = 256, action_spec=None) -> ProbabilisticActor:
+def make_actor(lstm_hidden: int = 64, mlp_hidden: int = 256, action_spec=None, encoder: str = "lstm",
+               window: int = 8) -> ProbabilisticActor:
     """The SAC actor: ``observation`` -> ``action`` (in [-1, 1]) with ``loc``/``scale``."""
-    module = TensorDictModule(ActorNet(lstm_hidden, mlp_hidden), in_keys=["observation"], out_keys=["loc", "scale"])
+    module = TensorDictModule(ActorNet(lstm_hidden, mlp_hidden, encoder=encoder, window=window),
+                              in_keys=["observation"], out_keys=["loc", "scale"])
     return ProbabilisticActor(
         module, in_keys=["loc", "scale"], spec=action_spec, distribution_class=TanhNormal,
         distribution_kwargs={"low": -1.0, "high": 1.0}, return_log_prob=False,
     )
 
 
-def make_critic(lstm_hidden: int = 64, mlp_hidden: int = 256, privileged_size: int = 0) -> TensorDictModule:
+def make_critic(lstm_hidden: int = 64, mlp_hidden: int = 256, privileged_size: int = 0, encoder: str = "lstm",
+                window: int = 8) -> TensorDictModule:
     """One Q network: (``observation``, ``action``[, ``privileged``]) -> ``state_action_value``."""
     keys = ["observation", "action"] + (["privileged"] if privileged_size else [])
-    return TensorDictModule(CriticNet(lstm_hidden, mlp_hidden, privileged_size=privileged_size), in_keys=keys,
-                            out_keys=["state_action_value"])
+    net = CriticNet(lstm_hidden, mlp_hidden, privileged_size=privileged_size, encoder=encoder, window=window)
+    return TensorDictModule(net, in_keys=keys, out_keys=["state_action_value"])

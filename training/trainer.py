@@ -136,9 +136,11 @@ class Trainer:
         self.window = version.flight_stack.window_steps
         privileged = c.network.asymmetric_critic
         self.env = make_env(c.env.num_envs, self.task_config, seed=c.seed, window=self.window, privileged=privileged)
-        self.actor = make_actor(c.network.lstm_hidden, c.network.mlp_hidden, self.env.action_spec).to(self.device)
-        critics = [make_critic(c.network.lstm_hidden, c.network.mlp_hidden, PRIVILEGED_SIZE if privileged else 0)
-                   .module.to(self.device) for _ in range(2)]
+        net = c.network
+        self.actor = make_actor(net.lstm_hidden, net.mlp_hidden, self.env.action_spec, net.encoder,
+                                self.window).to(self.device)
+        critics = [make_critic(net.lstm_hidden, net.mlp_hidden, PRIVILEGED_SIZE if privileged else 0, net.encoder,
+                               self.window).module.to(self.device) for _ in range(2)]
         self.stored_keys = stored_keys(self.task_config, privileged)
         self.sac = RecurrentSAC(
             self.actor.module[0].module, critics, gamma=c.optim.gamma, tau=c.optim.tau, alpha=c.optim.alpha,

@@ -30,7 +30,7 @@ import torch
 from torch import nn
 
 from jsbsim_env.control.checked_io import DamagedFileError, checked_load, non_finite_entries
-from jsbsim_env.control.network import ActorNet
+from jsbsim_env.control.network import ENCODERS, ActorNet, encoder_inputs
 from jsbsim_env.control.observation import GOAL_NAMES, OBS_SIZE, ActionError
 from jsbsim_env.control.stack import ControlStack, StackSettings
 from jsbsim_env.sim.core import N_STATE
@@ -125,11 +125,16 @@ def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
             raise PolicyFileError(f"{path}: {err}") from err
         prefix = "module.0.module."
         state = {k[len(prefix):]: v for k, v in data["actor"].items() if k.startswith(prefix)}
-        inputs = state["encoder.lstm.weight_ih_l0"].shape[1]
+        kind = data["network"].get("encoder", "lstm")  # files before the encoder setting are LSTMs
+        if kind not in ENCODERS:
+            raise PolicyFileError(f"{path} has a {kind!r} encoder, which this version does not have "
+                                  f"({', '.join(ENCODERS)})")
+        inputs = encoder_inputs(state, kind, stack.window_steps)
         if inputs != OBS_SIZE:
             raise PolicyFileError(f"{path} was trained on observations of {inputs} values, and this version has "
                                   f"{OBS_SIZE}; train a new policy")
-        net = ActorNet(data["network"]["lstm_hidden"], data["network"]["mlp_hidden"], obs_size=inputs)
+        net = ActorNet(data["network"]["lstm_hidden"], data["network"]["mlp_hidden"], obs_size=inputs, encoder=kind,
+                       window=stack.window_steps)
         net.load_state_dict(state)
     except PolicyFileError:
         raise
@@ -184,7 +189,7 @@ def export_onnx(actor: DeterministicActor, path: Path | str, window: int = 8, so
     import onnx
 
     path = Path(path)
-    example = torch.zeros(1, window, actor.net.encoder.lstm.input_size)
+    example = torch.zeros(1, window, actor.net.obs_size)
     handle, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
     os.close(handle)
     try:
