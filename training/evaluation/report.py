@@ -22,6 +22,7 @@ import json
 import math
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, replace
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -78,8 +79,8 @@ def _controllers(policy_path) -> tuple[dict[str, Callable[[], object]], Path | N
     from jsbsim_env.control.factory import make_controller
 
     makers: dict[str, Callable[[], object]] = {"PID": PIDAttitudeController}
-    factory_names = {name: name.lower() for name in EXTRA_CONTROLLERS}  # "LQI_tuned" flies "lqi_tuned"
-    makers.update({name: (lambda n=factory: make_controller(n)) for name, factory in factory_names.items()})
+    # Each extra controller is the factory's of the same name in lower case ("LQI_tuned": "lqi_tuned").
+    makers.update({name: partial(make_controller, name.lower()) for name in EXTRA_CONTROLLERS})
     from jsbsim_env.control.policy import PolicyFileError, shipped_policy_path
 
     path = Path(policy_path) if policy_path is not None else shipped_policy_path()
