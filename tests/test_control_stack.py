@@ -14,6 +14,8 @@ import pytest
 from jsbsim_env.control.observation import (
     ACTION_SIZE,
     GOAL_NAMES,
+    INTEGRAL_COLUMNS,
+    INTEGRAL_SCALE_DEG_S,
     OBS_OFFSET,
     OBS_SCALE,
     OBS_SIZE,
@@ -33,6 +35,7 @@ from jsbsim_env.control.pid import (
     SURFACE_INTEGRATOR_LIMIT_DEG,
     GainSchedule,
 )
+from jsbsim_env.control.integrals import LIMIT_DEG_S, ErrorIntegrals
 from jsbsim_env.control.stack import ControlStack, StackSettings
 from jsbsim_env.control.trims import GoalTrim, SurfaceTrim
 from jsbsim_env.sim.core import N_STATE, STATE_NAMES
@@ -227,6 +230,43 @@ def test_goal_trim_settings_outside_their_range_are_refused(kwargs):
         GoalTrim(**kwargs)
 
 
+def test_error_integrals_integrate_small_errors_only_within_their_bound_sideslip_against_zero():
+    integrals = ErrorIntegrals()
+    m = list(MEASUREMENT)
+    m[1], m[2], m[8] = math.radians(0.5), math.radians(-0.2), math.radians(0.3)
+    goal = [0.0, 0.0, 10.0]
+    assert integrals.integrate(0.1, m, goal) == pytest.approx([-0.05, 0.02, -0.03])
+    m[1] = math.radians(1.5)  # a goal step's transient: the roll integral holds
+    assert integrals.integrate(0.1, m, goal) == pytest.approx([-0.05, 0.04, -0.06])
+    m[1], m[2], m[8] = math.radians(-0.9), math.radians(-0.9), float("nan")  # a NaN integrates nothing
+    for _ in range(200):
+        integrals.integrate(0.1, m, goal)
+    assert integrals.integral_deg_s == pytest.approx([LIMIT_DEG_S, LIMIT_DEG_S, -0.06])
+    integrals.reset()
+    assert integrals.integral_deg_s == [0.0, 0.0, 0.0]
+    with pytest.raises(ValueError, match="control interval"):
+        integrals.integrate(float("nan"), m, goal)
+
+
+def test_the_error_integrals_are_read_between_the_last_action_and_the_goals():
+    stack = ControlStack(StackSettings(window_steps=2, error_integrals=True))
+    reference = ErrorIntegrals()
+    assert stack.needs_interval
+    last = initial_last_action(MEASUREMENT)
+    for k, (m, action) in enumerate(zip(_measurements(10), ACTIONS)):
+        window = stack.observe(m, GOAL, DT_S)
+        if k > 0:  # from the flight's second step, as the trims
+            reference.integrate(DT_S, m, GOAL)
+        plain = scale_row(m + last + GOAL)
+        expected = plain[:-3] + [v / INTEGRAL_SCALE_DEG_S for v in reference.integral_deg_s] + plain[-3:]
+        np.testing.assert_allclose(window[-1], np.array(expected, np.float32), rtol=0, atol=0)
+        np.testing.assert_allclose(window[-1, INTEGRAL_COLUMNS] * INTEGRAL_SCALE_DEG_S, reference.integral_deg_s,
+                                   rtol=1e-6)
+        assert stack.command(action) == action_list_to_command(action)  # nothing added to the command
+        last = action
+    assert reference.integral_deg_s[0] < -1e-3 and reference.integral_deg_s[1] < -1e-3  # roll and pitch above
+
+
 # ----------------------------------------------------------------------------- stack settings
 
 def test_stack_settings_round_trip_and_default_to_the_network_alone():
@@ -234,7 +274,10 @@ def test_stack_settings_round_trip_and_default_to_the_network_alone():
     for settings in (StackSettings(), StackSettings(8, 20.0, 2.0), StackSettings(1, 0.5, 0.1), StackSettings(64, 100.0)):
         assert StackSettings.from_dict(settings.to_dict()) == settings
     assert StackSettings(8, 20.0, 2.0).to_dict() == {"window_steps": 8, "goal_trim_time_constant_s": 20.0,
-                                                     "surface_trim_gain": 2.0}
+                                                     "surface_trim_gain": 2.0, "error_integrals": False}
+    with_integrals = StackSettings(8, error_integrals=True)
+    assert StackSettings.from_dict(with_integrals.to_dict()) == with_integrals
+    assert (StackSettings().observation_size, with_integrals.observation_size) == (OBS_SIZE, OBS_SIZE + 3)
     assert StackSettings.from_dict({}) == StackSettings()
     with pytest.raises(ValueError, match=r"unknown control-stack settings \['integral_trim'\]"):
         StackSettings.from_dict({"window_steps": 8, "integral_trim": 0.5})
@@ -251,6 +294,7 @@ def test_stack_settings_round_trip_and_default_to_the_network_alone():
     ({"goal_trim_time_constant_s": float("nan")}, "goal_trim_time_constant_s"),
     ({"surface_trim_gain": -0.1}, "surface_trim_gain"), ({"surface_trim_gain": 2.1}, "surface_trim_gain"),
     ({"surface_trim_gain": float("nan")}, "surface_trim_gain"),
+    ({"error_integrals": 1}, "error_integrals"), ({"error_integrals": "yes"}, "error_integrals"),
 ])
 def test_stack_settings_outside_their_ranges_are_refused_by_name(kwargs, named):
     with pytest.raises(ValueError, match=named):
@@ -377,8 +421,9 @@ def test_each_trim_removes_a_steady_error_on_the_route(trims, pitch_share):
 
 
 # ----------------------------------------------------------------------------- training as flown
-@pytest.mark.parametrize("goal_trim_s, surface_gain", [(20.0, 2.0), (0.0, 0.5), (5.0, 0.0)])
-def test_the_training_task_observes_step_for_step_as_the_flight_stack(goal_trim_s, surface_gain):
+@pytest.mark.parametrize("goal_trim_s, surface_gain, integrals", [(20.0, 2.0, False), (0.0, 0.5, False),
+                                                                  (5.0, 0.0, False), (0.0, 0.0, True), (20.0, 2.0, True)])
+def test_the_training_task_observes_step_for_step_as_the_flight_stack(goal_trim_s, surface_gain, integrals):
     # The task's episodes (sensor noise, delay, random interval on) fed to the flight stack as
     # measurements: from the second step on, when both last actions are the policy's, the stack's
     # newest observation is the task's, so a policy trained in the task flies as it trained.
@@ -386,9 +431,11 @@ def test_the_training_task_observes_step_for_step_as_the_flight_stack(goal_trim_
     from jsbsim_env.task.attitude import AttitudeTask, TaskConfig
 
     pilot = PIDAttitudeController()  # flies the aircraft close to its goals, where the goal trim acts
-    task = AttitudeTask(TaskConfig(surface_trim_gain=surface_gain, goal_trim_time_constant_s=goal_trim_s))
+    task = AttitudeTask(TaskConfig(surface_trim_gain=surface_gain, goal_trim_time_constant_s=goal_trim_s,
+                                   error_integrals=integrals))
     stack = ControlStack(StackSettings(window_steps=1, goal_trim_time_constant_s=goal_trim_s,
-                                       surface_trim_gain=surface_gain))
+                                       surface_trim_gain=surface_gain, error_integrals=integrals))
+    assert task.config.observation_size == stack.settings.observation_size
     obs, _ = task.reset(seed=5)
     dt_s = task.core.setup.control_interval_s
     for k in range(250):  # 10 s: goals change, trims move
@@ -400,8 +447,10 @@ def test_the_training_task_observes_step_for_step_as_the_flight_stack(goal_trim_
         action = np.clip(command_to_action(pilot.update(dt_s, measurement, asked)), -1.0, 1.0).tolist()
         stack.command(action)
         obs, _, terminated, truncated, _ = task.step(np.array(action))
-        assert not (terminated or truncated)
+        assert obs.shape == (stack.settings.observation_size,) and not (terminated or truncated)
     if surface_gain:
         assert max(abs(t) for t in stack.surface_trim.trim_deg) > 1e-3
     if goal_trim_s:
         assert max(abs(t) for t in stack.goal_trim.offset_rad) > 1e-5
+    if integrals:
+        assert min(abs(v) for v in stack.integrals.integral_deg_s) > 1e-4

@@ -12,7 +12,7 @@ from jsbsim_env.control.observation import OBS_SIZE
 from jsbsim_env.control.stack import StackSettings
 from jsbsim_env.sim.core import CoreConfig
 from jsbsim_env.task.attitude import TaskConfig
-from jsbsim_env.task.versions import LATEST, V0, V1, V2, VERSIONS, TaskVersion, task_version
+from jsbsim_env.task.versions import LATEST, V0, V1, V2, V3, VERSIONS, TaskVersion, task_version
 
 
 def test_v0_is_the_papers_task_flown_by_the_network_alone():
@@ -42,8 +42,17 @@ def test_v2_trains_with_v1s_flight_stack_around_the_network():
     assert {**V2.task.__dict__, "surface_trim_gain": 0.5, "goal_trim_time_constant_s": 0.0} == V1.task.__dict__
 
 
+def test_v3_learns_its_integral_action_from_the_error_integrals_with_no_trim_around_the_network():
+    assert V3.env_id == "SolarUAVAttitude-v3" and V3.trained_as_flown
+    assert V3.flight_stack == StackSettings(window_steps=8, error_integrals=True)
+    assert V3.task.error_integrals and V3.task.observation_size == OBS_SIZE + 3
+    # Everything else is v1's task.
+    assert {**V3.task.__dict__, "surface_trim_gain": 0.5, "error_integrals": False} == V1.task.__dict__
+
+
 def test_versions_are_listed_by_id_and_an_unknown_one_is_refused_naming_it():
-    assert list(VERSIONS) == ["SolarUAVAttitude-v0", "SolarUAVAttitude-v1", "SolarUAVAttitude-v2"]
+    assert list(VERSIONS) == ["SolarUAVAttitude-v0", "SolarUAVAttitude-v1", "SolarUAVAttitude-v2",
+                              "SolarUAVAttitude-v3"]
     assert all(isinstance(v, TaskVersion) and VERSIONS[v.env_id] is v for v in VERSIONS.values())
     assert task_version("SolarUAVAttitude-v1") is V1 and task_version("SolarUAVAttitude-v0") is V0
     with pytest.raises(ValueError, match="'SolarUAVAttitude-v9'") as err:
@@ -52,15 +61,16 @@ def test_versions_are_listed_by_id_and_an_unknown_one_is_refused_naming_it():
 
 
 @pytest.mark.filterwarnings("ignore:.*is out of date:DeprecationWarning")
-@pytest.mark.parametrize("version", [V0, V1, V2], ids=lambda v: v.env_id)
+@pytest.mark.parametrize("version", [V0, V1, V2, V3], ids=lambda v: v.env_id)
 def test_every_version_is_registered_with_gymnasium_on_import(version):
     assert version.env_id in gym.registry and jsbsim_env.ENV_ID in gym.registry
     env = gym.make(version.env_id)
     assert env.unwrapped.task.config == version.task
     obs, _ = env.reset(seed=0)
-    assert obs.shape == (OBS_SIZE,) == env.observation_space.shape and obs.dtype == np.float32
+    size = version.flight_stack.observation_size
+    assert obs.shape == (size,) == env.observation_space.shape and obs.dtype == np.float32
     assert env.action_space.shape == (4,)
     obs, reward, terminated, truncated, info = env.step(np.zeros(4, np.float32))
-    assert obs.shape == (20,) and np.isfinite(reward) and not (terminated or truncated) and "penalty_roll" in info
+    assert obs.shape == (size,) and np.isfinite(reward) and not (terminated or truncated) and "penalty_roll" in info
     jsbsim_env.task.gym_env.register()  # registering again changes nothing
     assert gym.spec(version.env_id).kwargs["config"] == version.task

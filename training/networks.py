@@ -43,9 +43,9 @@ class CriticNet(nn.Module):
 
 
 def make_actor(lstm_hidden: int = 64, mlp_hidden: int = 256, action_spec=None, encoder: str = "lstm",
-               window: int = 8) -> ProbabilisticActor:
+               window: int = 8, obs_size: int = OBS_SIZE) -> ProbabilisticActor:
     """The SAC actor: ``observation`` -> ``action`` (in [-1, 1]) with ``loc``/``scale``."""
-    module = TensorDictModule(ActorNet(lstm_hidden, mlp_hidden, encoder=encoder, window=window),
+    module = TensorDictModule(ActorNet(lstm_hidden, mlp_hidden, obs_size=obs_size, encoder=encoder, window=window),
                               in_keys=["observation"], out_keys=["loc", "scale"])
     return ProbabilisticActor(
         module, in_keys=["loc", "scale"], spec=action_spec, distribution_class=TanhNormal,
@@ -54,8 +54,9 @@ def make_actor(lstm_hidden: int = 64, mlp_hidden: int = 256, action_spec=None, e
 
 
 def make_critic(lstm_hidden: int = 64, mlp_hidden: int = 256, privileged_size: int = 0, encoder: str = "lstm",
-                window: int = 8) -> TensorDictModule:
+                window: int = 8, obs_size: int = OBS_SIZE) -> TensorDictModule:
     """One Q network: (``observation``, ``action``[, ``privileged``]) -> ``state_action_value``."""
     keys = ["observation", "action"] + (["privileged"] if privileged_size else [])
-    net = CriticNet(lstm_hidden, mlp_hidden, privileged_size=privileged_size, encoder=encoder, window=window)
+    net = CriticNet(lstm_hidden, mlp_hidden, obs_size=obs_size, privileged_size=privileged_size, encoder=encoder,
+                    window=window)
     return TensorDictModule(net, in_keys=keys, out_keys=["state_action_value"])

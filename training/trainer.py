@@ -137,10 +137,11 @@ class Trainer:
         privileged = c.network.asymmetric_critic
         self.env = make_env(c.env.num_envs, self.task_config, seed=c.seed, window=self.window, privileged=privileged)
         net = c.network
+        obs_size = self.task_config.observation_size
         self.actor = make_actor(net.lstm_hidden, net.mlp_hidden, self.env.action_spec, net.encoder,
-                                self.window).to(self.device)
+                                self.window, obs_size).to(self.device)
         critics = [make_critic(net.lstm_hidden, net.mlp_hidden, PRIVILEGED_SIZE if privileged else 0, net.encoder,
-                               self.window).module.to(self.device) for _ in range(2)]
+                               self.window, obs_size).module.to(self.device) for _ in range(2)]
         self.stored_keys = stored_keys(self.task_config, privileged)
         self.sac = RecurrentSAC(
             self.actor.module[0].module, critics, gamma=c.optim.gamma, tau=c.optim.tau, alpha=c.optim.alpha,

@@ -24,6 +24,11 @@ the action just taken and a one-step temporal-difference critic cannot learn wha
 
 ``OBSERVATION_TABLE`` holds the same rows, one per index, for code.
 
+A controller that reads error integrals (``StackSettings.error_integrals``,
+``jsbsim_env.control.integrals``) has three more values, ``INTEGRAL_NAMES``, each in deg s over
+``INTEGRAL_SCALE_DEG_S``, between the last action and the goals (which close every observation):
+``observation_size(error_integrals=True)`` = 23.
+
 The action (``ACTION_SIZE`` = 4, each in [-1, 1]) maps linearly to the commands of the paper's
 Table 2: aileron and elevator +-30 deg, rudder +-20 deg, throttle 0..1.
 
@@ -45,6 +50,15 @@ GOAL_NAMES = ("roll_cmd_rad", "pitch_cmd_rad", "airspeed_eas_cmd_mps")
 ACTION_NAMES = ("aileron", "elevator", "rudder", "throttle")
 ACTION_SIZE = len(ACTION_NAMES)
 OBS_SIZE = N_STATE + ACTION_SIZE + len(GOAL_NAMES)
+INTEGRAL_NAMES = ("roll_error_integral_deg_s", "pitch_error_integral_deg_s", "sideslip_error_integral_deg_s")
+INTEGRAL_SCALE_DEG_S = 5.0  # a steady error of 0.25 deg reads 1 after 20 s
+INTEGRAL_COLUMNS = slice(N_STATE + ACTION_SIZE, N_STATE + ACTION_SIZE + len(INTEGRAL_NAMES))
+
+
+def observation_size(error_integrals: bool = False) -> int:
+    """Values in one observation: ``OBS_SIZE``, and the error integrals where the controller reads them."""
+    return OBS_SIZE + (len(INTEGRAL_NAMES) if error_integrals else 0)
+
 
 _DEG = math.degrees(1.0)
 # Angles and rates to tens of degrees, surfaces to their travel, airspeed about 10 m/s, altitude
@@ -171,6 +185,9 @@ __all__ = [
     "ACTION_TOLERANCE",
     "GOAL_COLUMNS",
     "GOAL_NAMES",
+    "INTEGRAL_COLUMNS",
+    "INTEGRAL_NAMES",
+    "INTEGRAL_SCALE_DEG_S",
     "LAST_ACTION_COLUMNS",
     "OBSERVATION_TABLE",
     "OBS_OFFSET",
@@ -183,6 +200,7 @@ __all__ = [
     "action_to_command",
     "command_to_action",
     "initial_last_action",
+    "observation_size",
     "scale_observation",
     "scale_row",
 ]

@@ -31,7 +31,7 @@ from torch import nn
 
 from jsbsim_env.control.checked_io import DamagedFileError, checked_load, non_finite_entries
 from jsbsim_env.control.network import ENCODERS, ActorNet, encoder_inputs
-from jsbsim_env.control.observation import GOAL_NAMES, OBS_SIZE, ActionError
+from jsbsim_env.control.observation import GOAL_NAMES, ActionError
 from jsbsim_env.control.stack import ControlStack, StackSettings
 from jsbsim_env.sim.core import N_STATE
 
@@ -130,9 +130,9 @@ def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
             raise PolicyFileError(f"{path} has a {kind!r} encoder, which this version does not have "
                                   f"({', '.join(ENCODERS)})")
         inputs = encoder_inputs(state, kind, stack.window_steps)
-        if inputs != OBS_SIZE:
-            raise PolicyFileError(f"{path} was trained on observations of {inputs} values, and this version has "
-                                  f"{OBS_SIZE}; train a new policy")
+        if inputs != stack.observation_size:
+            raise PolicyFileError(f"{path} was trained on observations of {inputs} values, and its control stack "
+                                  f"gives {stack.observation_size} in this version; train a new policy")
         net = ActorNet(data["network"]["lstm_hidden"], data["network"]["mlp_hidden"], obs_size=inputs, encoder=kind,
                        window=stack.window_steps)
         net.load_state_dict(state)
@@ -230,7 +230,7 @@ class PolicyRuntime:
         self.actor, self.meta = load_policy(path)
         self.stack = ControlStack(self.meta["stack"])
         self.window = self.stack.settings.window_steps
-        self.observation_size = OBS_SIZE
+        self.observation_size = self.stack.settings.observation_size
         self.backend = backend
         self._window_shape = (self.window, self.observation_size)
         if backend == "onnx":

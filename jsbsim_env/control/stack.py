@@ -4,6 +4,8 @@
                                                 |
     measurement --> [surface trim: integrate, take its trims off the observed surfaces]
                                                 |
+                    [error integrals: integrate]
+                                                |
                     [observation: scale, with the last action] --> [window: last N] --> network
                                                                                           |
     command <-- [surface trim: add trims, clip] <-- [action -> command] <-- action <------+
@@ -22,11 +24,14 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from jsbsim_env.control.integrals import ErrorIntegrals
 from jsbsim_env.control.observation import (
-    OBS_SIZE,
+    GOAL_COLUMNS,
+    INTEGRAL_SCALE_DEG_S,
     ObservationWindow,
     action_list_to_command,
     initial_last_action,
+    observation_size,
     scale_row,
 )
 from jsbsim_env.control.trims import (
@@ -36,18 +41,25 @@ from jsbsim_env.control.trims import (
     check_surface_trim_gain,
 )
 
+_GOALS_START = GOAL_COLUMNS.start  # negative: the goals close the row
+
 
 def observation_row(state: list[float], last_action: list[float], goal: list[float],
-                    surface_trim: SurfaceTrim | None = None, noise: list[float] | None = None) -> list[float]:
+                    surface_trim: SurfaceTrim | None = None, noise: list[float] | None = None,
+                    integrals: ErrorIntegrals | None = None) -> list[float]:
     """The network's observation for one step, as a list: a state (``core.STATE_NAMES``), the last
     action and the goal, with the surface trim's present trims taken off the observed surfaces
-    (the policy sees the part of each surface it commanded), scaled. Flight gives the measured
-    state; the training task gives the true state and the sensor noise to add (``noise``, zero on
-    the action and the goal)."""
+    (the policy sees the part of each surface it commanded), scaled; with ``integrals``, their
+    values go between the last action and the goal. Flight gives the measured state; the training
+    task gives the true state and the sensor noise to add (``noise``, zero on the action and the
+    goal)."""
     raw = state + last_action + goal
     if surface_trim is not None:
         raw = surface_trim.remove_from(raw)
-    return scale_row(raw, noise)
+    row = scale_row(raw, noise)
+    if integrals is not None:
+        row[_GOALS_START:_GOALS_START] = [v / INTEGRAL_SCALE_DEG_S for v in integrals.integral_deg_s]
+    return row
 
 
 @dataclass(frozen=True)
@@ -57,11 +69,13 @@ class StackSettings:
     ``window_steps``: observations the network reads, the newest last (the paper: 8).
     ``goal_trim_time_constant_s``: the goal trim's time constant; 0: no goal trim.
     ``surface_trim_gain``: the surface trim's gains as a fraction of the PID's integral gains; 0: no surface trim.
+    ``error_integrals``: whether the network reads the roll, pitch and sideslip error integrals.
     """
 
     window_steps: int = 8
     goal_trim_time_constant_s: float = 0.0
     surface_trim_gain: float = 0.0
+    error_integrals: bool = False
 
     def __post_init__(self):
         if isinstance(self.window_steps, bool) or not isinstance(self.window_steps, int) \
@@ -69,6 +83,12 @@ class StackSettings:
             raise ValueError(f"window_steps must be a whole number in [1, 64], got {self.window_steps!r}")
         check_goal_trim_time_constant(self.goal_trim_time_constant_s, "goal_trim_time_constant_s")
         check_surface_trim_gain(self.surface_trim_gain, "surface_trim_gain")
+        if not isinstance(self.error_integrals, bool):
+            raise ValueError(f"error_integrals must be true or false, got {self.error_integrals!r}")  # noqa: TRY004
+
+    @property
+    def observation_size(self) -> int:
+        return observation_size(self.error_integrals)
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -85,7 +105,8 @@ class StackSettings:
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 raise ValueError(f"{name} must be a number, got {value!r}")  # noqa: TRY004 - a bad setting, by name
             numbers[name] = float(value)
-        return cls(window_steps=data.get("window_steps", 8), **numbers)
+        return cls(window_steps=data.get("window_steps", 8), error_integrals=data.get("error_integrals", False),
+                   **numbers)
 
 
 class ControlStack:
@@ -95,8 +116,9 @@ class ControlStack:
         self.settings = s = settings or StackSettings()
         self.goal_trim = GoalTrim(s.goal_trim_time_constant_s) if s.goal_trim_time_constant_s else None
         self.surface_trim = SurfaceTrim(s.surface_trim_gain) if s.surface_trim_gain else None
-        self.window = ObservationWindow(s.window_steps, OBS_SIZE)
-        self.needs_interval = self.goal_trim is not None or self.surface_trim is not None
+        self.integrals = ErrorIntegrals() if s.error_integrals else None
+        self.window = ObservationWindow(s.window_steps, s.observation_size)
+        self.needs_interval = any(stage is not None for stage in (self.goal_trim, self.surface_trim, self.integrals))
         self.last_action: list[float] | None = None  # fed back into the next observation
         self._step: tuple[list[float], list[float], float | None] | None = None  # this step's (measurement, goal, dt_s)
 
@@ -105,12 +127,12 @@ class ControlStack:
         self.last_action = None
         self._step = None
         self.window.reset()
-        for stage in (self.goal_trim, self.surface_trim):
+        for stage in (self.goal_trim, self.surface_trim, self.integrals):
             if stage is not None:
                 stage.reset()
 
     def observe(self, measurement: list[float], asked: list[float], dt_s: float | None) -> np.ndarray:
-        """The stages before the network for one control step: the network's window (steps, 20),
+        """The stages before the network for one control step: the network's window (steps, values),
         valid until the next call. ``measurement`` in ``core.STATE_NAMES`` order, ``asked`` the goal
         (roll, pitch rad, EAS m/s), both finite lists."""
         self._step = (measurement, asked, dt_s)
@@ -118,9 +140,12 @@ class ControlStack:
         first = self.last_action is None
         if first:
             self.last_action = initial_last_action(measurement)
-        if self.surface_trim is not None and not first:  # the trims start from zero with the flight, as in training
-            self.surface_trim.integrate(dt_s, measurement, given)
-        row = observation_row(measurement, self.last_action, given, self.surface_trim)
+        if not first:  # the integrators start from zero with the flight, as in training
+            if self.surface_trim is not None:
+                self.surface_trim.integrate(dt_s, measurement, given)
+            if self.integrals is not None:
+                self.integrals.integrate(dt_s, measurement, given)
+        row = observation_row(measurement, self.last_action, given, self.surface_trim, integrals=self.integrals)
         return self.window.push(np.array(row, dtype=np.float32))
 
     def command(self, action: list[float]) -> list[float]:

@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from jsbsim_env.control.integrals import ErrorIntegrals
 from jsbsim_env.control.observation import (
     ACTION_OFFSET,
     ACTION_SCALE,
@@ -44,6 +45,7 @@ from jsbsim_env.control.observation import (
     ActionError,
     action_list_to_command,
     initial_last_action,
+    observation_size,
     scale_row,
 )
 from jsbsim_env.control.pid import SURFACE_INTEGRATOR_LIMIT_DEG, GainSchedule, PIDAttitudeController
@@ -131,6 +133,8 @@ class TaskConfig:
     trim at g times the PID's integral gains (``jsbsim_env.control.trims``); 0: none, as the paper.
     ``goal_trim_time_constant_s`` > 0 gives the policy its goals through the control stack's goal
     trim with that time constant; 0: none, as the paper.
+    ``error_integrals`` gives the policy the control stack's roll, pitch and sideslip error
+    integrals in its observation (``jsbsim_env.control.integrals``); False: none, as the paper.
     ``sideslip_weight``, ``roll_weight`` and ``pitch_weight`` multiply Eq. 22's sideslip, roll and
     pitch penalties and their caps (1: the paper's reward).
     ``penalty_tail`` keeps that share of each penalty's slope beyond its cap (0: the paper's reward),
@@ -145,6 +149,7 @@ class TaskConfig:
     goal_hold_s: tuple[float, float] = (3.0, 10.0)  # each channel holds its goal this long, drawn uniformly
     surface_trim_gain: float = 0.0  # fraction of the PID's integral gains; 0: none, as the paper
     goal_trim_time_constant_s: float = 0.0  # 0: none, as the paper
+    error_integrals: bool = False  # False: none, as the paper
     sideslip_weight: float = 1.0
     roll_weight: float = 1.0
     pitch_weight: float = 1.0
@@ -154,6 +159,8 @@ class TaskConfig:
     def __post_init__(self):
         check_surface_trim_gain(self.surface_trim_gain, "surface_trim_gain")
         check_goal_trim_time_constant(self.goal_trim_time_constant_s, "goal_trim_time_constant_s")
+        if not isinstance(self.error_integrals, bool):
+            raise ValueError(f"error_integrals must be True or False, got {self.error_integrals!r}")  # noqa: TRY004
         low, high = self.goal_hold_s
         if not 0.0 < low <= high < math.inf:  # NaN fails too
             raise ValueError(f"goal_hold_s must be a finite range (low, high) with 0 < low <= high, got {(low, high)}")
@@ -167,7 +174,7 @@ class TaskConfig:
 
     @property
     def observation_size(self) -> int:
-        return OBS_SIZE
+        return observation_size(self.error_integrals)
 
 
 _NO_EXTRA_NOISE = [0.0] * (ACTION_SIZE + len(GOAL_NAMES))  # the last action and the goals are known exactly
@@ -209,12 +216,13 @@ class AttitudeTaskBatch:
         self._trims = [SurfaceTrim(trim, schedule) for _ in range(n)] if trim > 0.0 else None
         tc = self.config.goal_trim_time_constant_s
         self._goal_trims = [GoalTrim(tc) for _ in range(n)] if tc > 0.0 else None
+        self._integrals = [ErrorIntegrals() for _ in range(n)] if self.config.error_integrals else None
         self._speed_holds = [PIDAttitudeController(schedule) for _ in range(n)] if self._external_share > 0.0 else None
         self._sideslip_weight, self._roll_weight = self.config.sideslip_weight, self.config.roll_weight
         self._pitch_weight = self.config.pitch_weight
         self._penalty_tail = self.config.penalty_tail
         self.external_throttle = [False] * n  # whether the speed hold flies each aircraft's throttle
-        self._obs_lists: list[list[float]] = [[0.0] * OBS_SIZE for _ in range(n)]
+        self._obs_lists: list[list[float]] = [[0.0] * self.config.observation_size for _ in range(n)]
         self._not_started = set(range(n))  # aircraft without an episode yet: step() needs reset_one() first
 
     # ------------------------------------------------------------------ episode start
@@ -249,13 +257,15 @@ class AttitudeTaskBatch:
             self._trims[i].reset()
         if self._goal_trims is not None:
             self._goal_trims[i].reset()
+        if self._integrals is not None:
+            self._integrals[i].reset()
         return np.array(self._observation(i), dtype=np.float32)
 
     # ------------------------------------------------------------------ stepping
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """One control interval for every aircraft.
 
-        Returns observations (N x 20 float32), reward terms (N x 5: ``REWARD_TERMS`` then the
+        Returns observations (N x ``observation_size`` float32), reward terms (N x 5: ``REWARD_TERMS`` then the
         reward), terminated and truncated flags, and termination codes (``core.TERMINATION_CAUSES``).
         The caller resets the aircraft whose episode ended.
         """
@@ -306,11 +316,16 @@ class AttitudeTaskBatch:
             time_s = core.step_index * core.setup.control_interval_s
             if time_s >= self._next_goal_change_min_s[i]:
                 self._update_goals(i, time_s)
-            if self._trims is not None and not code:
+            if (self._trims is not None or self._integrals is not None) and not code:
                 # The error against the goal now held, measured as the policy sees it, trims the
-                # next command (as the control stack does in flight).
+                # next command and moves the integrals the policy reads (as the control stack does
+                # in flight).
                 measured = [x + e for x, e in zip(state, self.noise[i])]
-                self._trims[i].integrate(core.setup.control_interval_s, measured, self._given_goal(i))
+                given = self._given_goal(i)
+                if self._trims is not None:
+                    self._trims[i].integrate(core.setup.control_interval_s, measured, given)
+                if self._integrals is not None:
+                    self._integrals[i].integrate(core.setup.control_interval_s, measured, given)
             obs.append(self._observation(i))
         codes_a = np.array(codes)
         terminated = codes_a > 0
@@ -354,8 +369,9 @@ class AttitudeTaskBatch:
         if self.external_throttle[i]:  # speed-free: the EAS goal is the measured EAS
             goal = [goal[0], goal[1], self.states[i][EAS_INDEX] + self.noise[i][EAS_INDEX]]
         trim = self._trims[i] if self._trims is not None else None
+        integrals = self._integrals[i] if self._integrals is not None else None
         obs = self._obs_lists[i] = observation_row(self.states[i], self.last_actions[i], goal, trim,
-                                                   self.noise[i] + _NO_EXTRA_NOISE)
+                                                   self.noise[i] + _NO_EXTRA_NOISE, integrals)
         return obs
 
     def privileged(self) -> np.ndarray:

@@ -7,6 +7,7 @@ version it was made with.
 | ``SolarUAVAttitude-v0`` | the paper's task: Eq. 22's reward, control delays 80-120 ms | the network alone |
 | ``SolarUAVAttitude-v1`` | surface trim at 0.5 x the PID's integral gains; reward with the roll and pitch penalties x2 and sideslip x6 (one cap for all three) and a tenth of each slope kept beyond its cap; delays 40-120 ms; 30 % of episodes with the throttle on a speed hold | goal trim (20 s) and surface trim at 2 x the PID's integral gains |
 | ``SolarUAVAttitude-v2`` | v1's, with its flight stack around the network in every episode: goal trim (20 s) and surface trim at 2 x | the same: trained as flown |
+| ``SolarUAVAttitude-v3`` | v1's without its surface trim; the network reads its roll, pitch and sideslip error integrals (``jsbsim_env.control.integrals``) | the error integrals and nothing else: trained as flown, integral action learned |
 
 Both train in the paper's disturbances otherwise (noise, random interval, coefficient spread,
 0.5 m/s turbulence) and are evaluated in the paper's.
@@ -33,13 +34,15 @@ class TaskVersion:
     def trained_as_flown(self) -> bool:
         """Whether the training episodes run every stage of the flight stack with its settings."""
         return (self.task.surface_trim_gain == self.flight_stack.surface_trim_gain
-                and self.task.goal_trim_time_constant_s == self.flight_stack.goal_trim_time_constant_s)
+                and self.task.goal_trim_time_constant_s == self.flight_stack.goal_trim_time_constant_s
+                and self.task.error_integrals == self.flight_stack.error_integrals)
 
 
 def trained_as_flown(env_id: str, task: TaskConfig, stack: StackSettings) -> TaskVersion:
     """A version whose training episodes run ``stack``'s trims with its settings around the network."""
     return TaskVersion(env_id, replace(task, surface_trim_gain=stack.surface_trim_gain,
-                                       goal_trim_time_constant_s=stack.goal_trim_time_constant_s), stack)
+                                       goal_trim_time_constant_s=stack.goal_trim_time_constant_s,
+                                       error_integrals=stack.error_integrals), stack)
 
 
 V0 = TaskVersion("SolarUAVAttitude-v0", TaskConfig(), StackSettings())
@@ -51,7 +54,8 @@ V1 = TaskVersion(
     StackSettings(window_steps=8, goal_trim_time_constant_s=20.0, surface_trim_gain=2.0),
 )
 V2 = trained_as_flown("SolarUAVAttitude-v2", V1.task, V1.flight_stack)
-VERSIONS = {v.env_id: v for v in (V0, V1, V2)}
+V3 = trained_as_flown("SolarUAVAttitude-v3", V1.task, StackSettings(window_steps=8, error_integrals=True))
+VERSIONS = {v.env_id: v for v in (V0, V1, V2, V3)}
 LATEST = V1.env_id
 
 
