@@ -32,9 +32,11 @@ from pathlib import Path
 # None of these loads torch, ray or onnxruntime: those load when flying, after the arguments are parsed.
 from jsbsim_env.control.factory import CONTROLLER_NAMES
 from jsbsim_env.task.metrics import json_ready
+from training.evaluation import selection
 from training.evaluation.benchmark import (
     FAMILIES,
     BenchmarkPlan,
+    flown_labels,
     jobs_for,
     plan_dict,
     plot_family,
@@ -66,6 +68,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="more policy files, each flown as a controller of its own (named by its run folder, or its "
                         "file name), paired with the others: for choosing between trained policies on --split "
                         "validation")
+    p.add_argument("--network-alone", action="store_true",
+                   help="also fly each policy without the classical stages its file records (goal trim, surface "
+                        "trim): what the network does by itself")
     p.add_argument("--episodes", type=number_type(int, 1, len(TEST_SEEDS)), default=20,
                    help=f"realisations per condition of each family (1 to {len(TEST_SEEDS)}, the test set's size)")
     p.add_argument("--split", choices=tuple(SPLITS), default="test",
@@ -137,8 +142,12 @@ def main(argv=None) -> int:
             return 2
     from tqdm import tqdm
 
-    jobs = jobs_for(families, controllers, args.episodes, args.quick, args.split, compared)
-    controllers = controllers + list(compared)
+    if args.network_alone and "policy" not in controllers and not compared:
+        print("benchmark: --network-alone needs a policy: the policy controller or --compare", file=sys.stderr)
+        return 2
+    jobs = jobs_for(families, controllers, args.episodes, args.quick, args.split, compared, args.network_alone,
+                    args.policy)
+    controllers = flown_labels(jobs)
     bar = tqdm(total=len(jobs), desc=f"benchmark ({args.backend})", unit="flight", file=sys.stderr,
                disable=args.no_progress or args.json)
     started = time.perf_counter()
@@ -165,7 +174,10 @@ def main(argv=None) -> int:
               "flights": len(rows), "controllers": controllers, "families": families, "episodes": args.episodes,
               "split": args.split, "seeds": [SPLITS[args.split].start, SPLITS[args.split].start + args.episodes - 1],
               "method": args.method,
-              "quick": args.quick, "plan": plan_dict(args.quick), "summary": summary}
+              "quick": args.quick, "plan": plan_dict(args.quick), "summary": summary,
+              "selection": [{"controller": c, **s} for c, s in
+                            selection.rank(summary, [c for c in controllers if c not in selection.CLASSICAL],
+                                           [c for c in selection.CLASSICAL if c in controllers])]}
     (args.out / "benchmark.json").write_text(json.dumps(json_ready({**record, "rows": rows}), indent=1))
     (args.out / "benchmark.md").write_text(render_markdown(summary, controllers, plan, args.episodes, command,
                                                            args.method, args.split))

@@ -9,6 +9,8 @@ import math
 import numpy as np
 import pytest
 
+from jsbsim_env.control.factory import make_controller
+from jsbsim_env.control.stack import StackSettings
 from training.evaluation.benchmark import (
     FAMILIES,
     BenchJob,
@@ -16,6 +18,7 @@ from training.evaluation.benchmark import (
     corner_free,
     corner_window,
     first_corner_s,
+    flown_labels,
     jobs_for,
     route_config,
     step_metrics,
@@ -164,3 +167,36 @@ def test_compare_flies_more_policy_files_as_controllers_of_their_own(tmp_path, c
     assert script.main(["--controllers", "pid", "--compare", str(tmp_path / "missing.pt"), "--out",
                         str(tmp_path / "x")]) == 2
     assert "missing.pt" in capsys.readouterr().err
+
+
+def test_network_alone_flies_each_policy_without_its_classical_stages(tmp_path, capsys, load_script, untrained_policy):
+    from jsbsim_env.control.policy import PolicyRuntime
+    from jsbsim_env.task.versions import V1, V3
+
+    script = load_script("benchmark")
+    v1 = untrained_policy(tmp_path / "v1run" / "best_policy.pt", seed=1, task=V1.env_id)
+    v3 = untrained_policy(tmp_path / "v3run" / "best_policy.pt", seed=1, task=V3.env_id)
+    alone = PolicyRuntime(v1, backend="torch", network_alone=True).stack.settings
+    assert PolicyRuntime(v1, backend="torch").stack.settings == V1.flight_stack
+    assert alone == StackSettings(window_steps=V1.flight_stack.window_steps)
+    # The error integrals are the network's input, not a classical stage: they stay.
+    assert PolicyRuntime(v3, backend="torch", network_alone=True).stack.settings == V3.flight_stack
+    jobs = jobs_for(["calm"], ["pid", "policy"], 1, True, "validation", {"v3run": str(v3)}, network_alone=True,
+                    policy=str(v1))
+    assert [(j.controller, j.policy_path, j.label, j.network_alone) for j in jobs[:5]] == [
+        ("pid", None, None, False), ("policy", None, None, False), ("policy", str(v3), "v3run", False),
+        ("policy", str(v1), "policy (network alone)", True), ("policy", str(v3), "v3run (network alone)", True)]
+    assert flown_labels(jobs) == ["pid", "policy", "v3run", "policy (network alone)", "v3run (network alone)"]
+    out = tmp_path / "bench"
+    assert script.main(["--controllers", "pid,policy", "--policy", str(v1), "--network-alone", "--families", "calm",
+                        "--episodes", "1", "--quick", "--split", "validation", "--out", str(out)]) == 0
+    record = json.loads((out / "benchmark.json").read_text())
+    assert record["controllers"] == ["pid", "policy", "policy (network alone)"]
+    assert [s["controller"] for s in record["selection"]] in (["policy", "policy (network alone)"],
+                                                             ["policy (network alone)", "policy"])
+    assert "## Against the best classical controller" in (out / "benchmark.md").read_text()
+    capsys.readouterr()
+    assert script.main(["--controllers", "pid", "--network-alone", "--out", str(tmp_path / "x")]) == 2
+    assert "--network-alone needs a policy" in capsys.readouterr().err
+    with pytest.raises(ValueError, match="network_alone is a setting of a policy"):
+        make_controller("pid", network_alone=True)

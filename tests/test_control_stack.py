@@ -11,6 +11,7 @@ from dataclasses import astuple
 import numpy as np
 import pytest
 
+from jsbsim_env.control.integrals import LIMIT_DEG_S, ErrorIntegrals
 from jsbsim_env.control.observation import (
     ACTION_SIZE,
     GOAL_NAMES,
@@ -35,7 +36,6 @@ from jsbsim_env.control.pid import (
     SURFACE_INTEGRATOR_LIMIT_DEG,
     GainSchedule,
 )
-from jsbsim_env.control.integrals import LIMIT_DEG_S, ErrorIntegrals
 from jsbsim_env.control.stack import ControlStack, StackSettings
 from jsbsim_env.control.trims import GoalTrim, SurfaceTrim
 from jsbsim_env.sim.core import N_STATE, STATE_NAMES

@@ -31,14 +31,17 @@ def tuned_gain_file(name: str) -> Path:
     return path
 
 
-def make_controller(name: str, policy=None, backend: str = "onnx"):
+def make_controller(name: str, policy=None, backend: str = "onnx", network_alone: bool = False):
     """``"policy"``: ``policy`` (a policy file; the shipped one when None) run by ``backend``
-    ("onnx" or "torch"); ``"pid"``: the gain-scheduled PID; ``"lqi"``: the gain-scheduled LQI;
+    ("onnx" or "torch"), without its classical stages where ``network_alone``
+    (``PolicyRuntime``); ``"pid"``: the gain-scheduled PID; ``"lqi"``: the gain-scheduled LQI;
     ``"pid_tuned"``, ``"lqi_tuned"``: the same with their tuned gain files."""
     if name == "policy":
         from jsbsim_env.control.policy import PolicyRuntime
 
-        return PolicyRuntime(policy, backend=backend)
+        return PolicyRuntime(policy, backend=backend, network_alone=network_alone)
+    if network_alone:
+        raise ValueError(f"network_alone is a setting of a policy, not of {name!r}")
     if name == "pid":
         return PIDAttitudeController()
     if name == "lqi":

@@ -22,6 +22,7 @@ import math
 import os
 import tempfile
 import warnings
+from dataclasses import replace
 from importlib import resources
 from pathlib import Path
 
@@ -220,15 +221,21 @@ class PolicyRuntime:
         policy_path: a policy file (``load_policy``); the shipped one by default.
         backend: ``"onnx"`` (onnxruntime, the ``.onnx`` file beside the policy, exported again
             if it is missing or was made from another policy file) or ``"torch"``.
+        network_alone: fly the network without the classical stages its file records (goal trim,
+            surface trim), to measure what the network does by itself; its inputs (window, error
+            integrals) stay as they are.
     """
 
-    def __init__(self, policy_path: Path | str | None = None, backend: str = "onnx"):
+    def __init__(self, policy_path: Path | str | None = None, backend: str = "onnx", network_alone: bool = False):
         path = Path(policy_path) if policy_path is not None else shipped_policy_path()
         if policy_path is None and not path.exists():
             raise PolicyFileError("no trained controller ships with this version of the package; pass a policy file "
                                   "(for example runs/<name>/best_policy.pt)")
         self.actor, self.meta = load_policy(path)
-        self.stack = ControlStack(self.meta["stack"])
+        settings = self.meta["stack"]
+        if network_alone:  # what the network contributes: its classical stages taken away, its inputs kept
+            settings = replace(settings, goal_trim_time_constant_s=0.0, surface_trim_gain=0.0)
+        self.stack = ControlStack(settings)
         self.window = self.stack.settings.window_steps
         self.observation_size = self.stack.settings.observation_size
         self.backend = backend

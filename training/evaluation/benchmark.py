@@ -40,6 +40,7 @@ import numpy as np
 from jsbsim_env.missions import MissionResult, RouteConfig
 from jsbsim_env.sim import disturbances as dist
 from jsbsim_env.sim.core import CoreConfig
+from training.evaluation import selection
 from training.evaluation.seeds import SPLITS
 from training.evaluation.stats import LOWER_IS_BETTER, VERDICTS, paired_difference
 from training.evaluation.sweep import AXES, AXIS_UNITS
@@ -141,6 +142,7 @@ class BenchJob:
     split: str = "test"  # the seed range (``seeds.SPLITS``): the frozen test set, or validation for choices
     policy_path: str | None = None  # a "policy" flown from this file instead of the run's --policy
     label: str | None = None  # its name in the rows and tables (the controller's name when None)
+    network_alone: bool = False  # a policy flown without its classical stages (``PolicyRuntime``)
 
 
 def seed_of(realisation: int, split: str = "test") -> int:
@@ -274,7 +276,7 @@ def run_benchmark_job(job: BenchJob, policy: str | None = None) -> list[dict]:
     TrimTable.forget_shared()  # the job's numbers must not depend on what this process flew before
     plan = BenchmarkPlan.quick() if job.quick else BenchmarkPlan()
     family = FAMILIES[job.family]
-    controller = make_controller(job.controller, job.policy_path or policy)
+    controller = make_controller(job.controller, job.policy_path or policy, network_alone=job.network_alone)
     row = {"family": job.family, "condition": condition_label(job.condition), "controller": job.label or job.controller,
            "realisation": job.realisation, "seed": seed_of(job.realisation, job.split)}
     if job.family == "steps":
@@ -303,18 +305,33 @@ def run_benchmark_job(job: BenchJob, policy: str | None = None) -> list[dict]:
     return [{**row, "ended_early": "", "corner_free": True, **{k: float(metrics[k]) for k in family.metrics}}]
 
 
+NETWORK_ALONE = "{} (network alone)"  # the label of a policy flown without its classical stages
+
+
 def jobs_for(families: list[str], controllers: list[str], episodes: int, quick: bool = False,
-             split: str = "test", policies: dict[str, str] | None = None) -> list[BenchJob]:
+             split: str = "test", policies: dict[str, str] | None = None, network_alone: bool = False,
+             policy: str | None = None) -> list[BenchJob]:
     """Every job: family x condition x realisation x controller (the controllers of one realisation
     next to each other), on the seeds of ``split`` ("test" or "validation"). ``policies`` adds, after
-    ``controllers``, a policy file per label (``--compare``)."""
+    ``controllers``, a policy file per label (``--compare``); ``network_alone`` then adds each policy
+    flown (``policy``, the "policy" controller's file, and ``policies``) without its classical stages,
+    labelled ``NETWORK_ALONE``."""
     if split not in SPLITS:
         raise ValueError(f"split must be one of {', '.join(SPLITS)}, got {split!r}")
     if not 1 <= episodes <= len(SPLITS[split]):
         raise ValueError(f"episodes must be 1 to {len(SPLITS[split])} (the {split} set's size), got {episodes}")
-    flown = [(c, None, None) for c in controllers] + [("policy", str(p), label) for label, p in (policies or {}).items()]
-    return [BenchJob(f, dict(c), ctl, k, quick, split, path, label) for f in families for c in FAMILIES[f].conditions
-            for k in range(episodes) for ctl, path, label in flown]
+    flown = [(c, None, None, False) for c in controllers] + [("policy", str(p), label, False)
+                                                             for label, p in (policies or {}).items()]
+    if network_alone:
+        flown += [("policy", path if label else policy, NETWORK_ALONE.format(label or ctl), True)
+                  for ctl, path, label, _ in flown if ctl == "policy"]
+    return [BenchJob(f, dict(c), ctl, k, quick, split, path, label, alone) for f in families
+            for c in FAMILIES[f].conditions for k in range(episodes) for ctl, path, label, alone in flown]
+
+
+def flown_labels(jobs: list[BenchJob]) -> list[str]:
+    """The controllers' names in the rows, in the order they are flown."""
+    return list(dict.fromkeys(j.label or j.controller for j in jobs))
 
 
 def summarise(rows: list[dict], controllers: list[str], method: str = "t") -> dict:
@@ -418,6 +435,7 @@ def render_markdown(summary: dict, controllers: list[str], plan: BenchmarkPlan, 
                         cells.append(f"{verdict} ({_fmt(d['mean'])})")
                     lines.append("| " + " | ".join(cells) + " |")
         lines.append("")
+    lines += selection.render(summary, controllers, _fmt)
     for name, per_condition in summary.items():
         family = FAMILIES[name]
         metrics = list(family.metrics)

@@ -1,0 +1,134 @@
+"""The rule that judges a learned controller against the classical ones on the benchmark, fixed in
+code before any candidate is scored: the same rule chooses between candidates on the validation
+seeds and states the result on the test seeds.
+
+For each cell (family, condition, metric) below, the reference is the best classical controller
+there: the one with the lowest mean among those that flew every realisation (fewest early ends
+first), so that a candidate is measured against the PID, the LQI or a tuned one, whichever is
+strongest on that very metric.
+
+| family | metrics | a candidate meets it when |
+|---|---|---|
+| turbulence | RMSE roll, pitch, sideslip at 1, 10, 20 km | better than the reference at 95 % |
+| table9 | RMSE roll, pitch, sideslip, both aircraft | better than the reference at 95 % |
+| steps | settling time, overshoot | not worse than the reference at 95 % |
+| robustness | RMSE roll, pitch, sideslip, each stress | not worse than the reference at 95 %, and no early end |
+| calm | mean absolute roll, pitch error | within ``CALM_BOUND_DEG`` |
+
+A candidate that ended a flight early in a condition fails every metric of that condition.
+Candidates rank by cells met, then by the geometric mean, over the turbulence and table9 cells, of
+their mean over the reference's (lower first).
+"""
+
+from __future__ import annotations
+
+import math
+
+from jsbsim_env.control.factory import CONTROLLER_NAMES
+
+CLASSICAL = tuple(c for c in CONTROLLER_NAMES if c != "policy")
+CALM_BOUND_DEG = 0.05
+# family -> (metrics judged, what meeting a cell asks: "better" or "not worse")
+CRITERIA = {
+    "turbulence": (("rmse_roll_deg", "rmse_pitch_deg", "rmse_beta_deg"), "better"),
+    "table9": (("rmse_roll_deg", "rmse_pitch_deg", "rmse_beta_deg"), "better"),
+    "steps": (("settling_time_s", "overshoot_pct"), "not worse"),
+    "robustness": (("rmse_roll_deg", "rmse_pitch_deg", "rmse_beta_deg"), "not worse"),
+    "calm": (("mae_roll_deg", "mae_pitch_deg"), "within bound"),
+}
+RATIO_FAMILIES = ("turbulence", "table9")
+
+
+def _verdict(entry: dict, candidate: str, reference: str, metric: str) -> str:
+    """The paired verdict for ``candidate`` against ``reference`` ("better", "worse", "no difference")."""
+    pairs = entry["pairs"]
+    if f"{candidate} - {reference}" in pairs:
+        return pairs[f"{candidate} - {reference}"][metric]["verdict"]
+    flipped = pairs[f"{reference} - {candidate}"][metric]["verdict"]
+    return {"better": "worse", "worse": "better"}.get(flipped, flipped)
+
+
+def best_classical(entry: dict, metric: str, classical) -> str:
+    """The classical controller with the fewest early ends, then the lowest mean, in one condition."""
+    flown = entry["controllers"]
+
+    def key(c):
+        mean = flown[c]["metrics"][metric]["mean"]
+        return flown[c]["ended_early"], mean if math.isfinite(mean) else math.inf
+
+    return min(classical, key=key)
+
+
+def judge(summary: dict, candidate: str, classical=CLASSICAL) -> list[dict]:
+    """One row per cell of ``CRITERIA`` found in ``summary`` (``benchmark.summarise``): the cell, the
+    reference controller and both means, the paired verdict, and whether the candidate meets it."""
+    rows = []
+    for family, (metrics, rule) in CRITERIA.items():
+        for cond, entry in summary.get(family, {}).items():
+            present = [c for c in classical if c in entry["controllers"]]
+            if not present or candidate not in entry["controllers"]:
+                continue
+            ended = entry["controllers"][candidate]["ended_early"]
+            for metric in metrics:
+                mean = entry["controllers"][candidate]["metrics"][metric]["mean"]
+                row = {"family": family, "condition": cond, "metric": metric, "candidate_mean": mean,
+                       "candidate_ended_early": ended}
+                if rule == "within bound":
+                    row.update(reference=None, reference_mean=CALM_BOUND_DEG, verdict=None,
+                               met=not ended and mean <= CALM_BOUND_DEG)
+                else:
+                    ref = best_classical(entry, metric, present)
+                    verdict = _verdict(entry, candidate, ref, metric)
+                    met = not ended and (verdict == "better" if rule == "better" else verdict != "worse")
+                    row.update(reference=ref, reference_mean=entry["controllers"][ref]["metrics"][metric]["mean"],
+                               verdict=verdict, met=met)
+                rows.append(row)
+    return rows
+
+
+def score(rows: list[dict]) -> dict:
+    """Cells met of all, and the geometric mean ratio candidate / reference over ``RATIO_FAMILIES``."""
+    logs = [math.log(r["candidate_mean"] / r["reference_mean"]) for r in rows
+            if r["family"] in RATIO_FAMILIES and r["reference_mean"] > 0 and r["candidate_mean"] > 0
+            and math.isfinite(r["candidate_mean"])]
+    return {"met": sum(r["met"] for r in rows), "cells": len(rows),
+            "ratio": math.exp(sum(logs) / len(logs)) if logs else math.nan,
+            "all_met": bool(rows) and all(r["met"] for r in rows)}
+
+
+def rank(summary: dict, candidates, classical=CLASSICAL) -> list[tuple[str, dict]]:
+    """The candidates with their ``score``, best first: most cells met, then the lowest ratio."""
+    scored = [(c, score(judge(summary, c, classical))) for c in candidates]
+    return sorted(scored, key=lambda cs: (-cs[1]["met"], cs[1]["ratio"] if math.isfinite(cs[1]["ratio"]) else math.inf))
+
+
+def render(summary: dict, controllers: list[str], fmt) -> list[str]:
+    """Markdown lines: the ranking of the learned controllers in ``controllers`` and, for each, its
+    cells against the best classical controller; nothing when either side is missing."""
+    candidates = [c for c in controllers if c not in CLASSICAL]
+    classical = [c for c in CLASSICAL if c in controllers]
+    if not candidates or not classical:
+        return []
+    lines = ["## Against the best classical controller", "",
+             ("The rule of `training.evaluation.selection`, fixed before scoring: in each cell the reference is "
+              f"the best of {', '.join(classical)} there; turbulence and Table 9 cells are met when better at 95 %, "
+              "steps and robustness cells when not worse (and no early end), calm cells within "
+              f"{CALM_BOUND_DEG:g} deg. Ratio: geometric mean of the candidate's mean over the reference's, "
+              "turbulence and Table 9."), "",
+             "| rank | controller | cells met | ratio | all met |", "|---|---|---|---|---|"]
+    ranked = rank(summary, candidates, classical)
+    for k, (c, s) in enumerate(ranked, 1):
+        lines.append(f"| {k} | {c} | {s['met']} of {s['cells']} | {fmt(s['ratio'])} | {'yes' if s['all_met'] else 'no'} |")
+    for c, _ in ranked:
+        lines += ["", f"### {c}", "", "| family | condition | metric | reference | reference mean | mean | verdict | met |",
+                  "|---|---|---|---|---|---|---|---|"]
+        for r in judge(summary, c, classical):
+            early = f" ({r['candidate_ended_early']} ended early)" if r["candidate_ended_early"] else ""
+            lines.append(f"| {r['family']} | {r['condition']} | {r['metric']} | {r['reference'] or 'bound'} | "
+                         f"{fmt(r['reference_mean'])} | {fmt(r['candidate_mean'])}{early} | {r['verdict'] or ''} | "
+                         f"{'yes' if r['met'] else 'no'} |")
+    lines.append("")
+    return lines
+
+
+__all__ = ["CALM_BOUND_DEG", "CLASSICAL", "CRITERIA", "best_classical", "judge", "rank", "render", "score"]
