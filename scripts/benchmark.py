@@ -69,8 +69,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "file name), paired with the others: for choosing between trained policies on --split "
                         "validation")
     p.add_argument("--network-alone", action="store_true",
-                   help="also fly each policy without the classical stages its file records (goal trim, surface "
-                        "trim): what the network does by itself")
+                   help="also fly each policy whose file records classical stages (goal trim, surface trim) "
+                        "without them: what the network does by itself")
     p.add_argument("--episodes", type=number_type(int, 1, len(TEST_SEEDS)), default=20,
                    help=f"realisations per condition of each family (1 to {len(TEST_SEEDS)}, the test set's size)")
     p.add_argument("--split", choices=tuple(SPLITS), default="test",
@@ -131,22 +131,27 @@ def main(argv=None) -> int:
     except ValueError as err:
         print(f"benchmark: --compare: {err}", file=sys.stderr)
         return 2
+    alone = []  # the policies --network-alone flies without their classical stages
     if "policy" in controllers or compared:  # read and checked once here, not in every job
         from jsbsim_env.control.policy import PolicyFileError, load_policy, shipped_policy_path
 
+        flown = ({"policy": args.policy or shipped_policy_path()} if "policy" in controllers else {}) | compared
         try:
-            for path in ([args.policy or shipped_policy_path()] if "policy" in controllers else []) + list(compared.values()):
-                load_policy(path)
+            for label, path in flown.items():
+                stack = load_policy(path)[1]["stack"]
+                if stack.goal_trim_time_constant_s or stack.surface_trim_gain:
+                    alone.append(label)
         except PolicyFileError as err:
             print(f"benchmark: {err}", file=sys.stderr)
             return 2
+    if args.network_alone and not alone:
+        print("benchmark: --network-alone needs a policy with classical stages (goal trim or surface trim) to take "
+              "away: the policy controller or --compare", file=sys.stderr)
+        return 2
     from tqdm import tqdm
 
-    if args.network_alone and "policy" not in controllers and not compared:
-        print("benchmark: --network-alone needs a policy: the policy controller or --compare", file=sys.stderr)
-        return 2
-    jobs = jobs_for(families, controllers, args.episodes, args.quick, args.split, compared, args.network_alone,
-                    args.policy)
+    jobs = jobs_for(families, controllers, args.episodes, args.quick, args.split, compared,
+                    alone if args.network_alone else (), args.policy)
     controllers = flown_labels(jobs)
     bar = tqdm(total=len(jobs), desc=f"benchmark ({args.backend})", unit="flight", file=sys.stderr,
                disable=args.no_progress or args.json)

@@ -181,7 +181,7 @@ def test_network_alone_flies_each_policy_without_its_classical_stages(tmp_path, 
     assert alone == StackSettings(window_steps=V1.flight_stack.window_steps)
     # The error integrals are the network's input, not a classical stage: they stay.
     assert PolicyRuntime(v3, backend="torch", network_alone=True).stack.settings == V3.flight_stack
-    jobs = jobs_for(["calm"], ["pid", "policy"], 1, True, "validation", {"v3run": str(v3)}, network_alone=True,
+    jobs = jobs_for(["calm"], ["pid", "policy"], 1, True, "validation", {"v3run": str(v3)}, ("policy", "v3run"),
                     policy=str(v1))
     assert [(j.controller, j.policy_path, j.label, j.network_alone) for j in jobs[:5]] == [
         ("pid", None, None, False), ("policy", None, None, False), ("policy", str(v3), "v3run", False),
@@ -197,6 +197,8 @@ def test_network_alone_flies_each_policy_without_its_classical_stages(tmp_path, 
     assert "## Against the best classical controller" in (out / "benchmark.md").read_text()
     capsys.readouterr()
     assert script.main(["--controllers", "pid", "--network-alone", "--out", str(tmp_path / "x")]) == 2
-    assert "--network-alone needs a policy" in capsys.readouterr().err
+    assert "--network-alone needs a policy with classical stages" in capsys.readouterr().err
+    assert script.main(["--controllers", "pid", "--compare", str(v3), "--network-alone", "--out",
+                        str(tmp_path / "y")]) == 2  # v3 has no classical stage to take away
     with pytest.raises(ValueError, match="network_alone is a setting of a policy"):
         make_controller("pid", network_alone=True)

@@ -309,22 +309,21 @@ NETWORK_ALONE = "{} (network alone)"  # the label of a policy flown without its 
 
 
 def jobs_for(families: list[str], controllers: list[str], episodes: int, quick: bool = False,
-             split: str = "test", policies: dict[str, str] | None = None, network_alone: bool = False,
+             split: str = "test", policies: dict[str, str] | None = None, network_alone=(),
              policy: str | None = None) -> list[BenchJob]:
     """Every job: family x condition x realisation x controller (the controllers of one realisation
     next to each other), on the seeds of ``split`` ("test" or "validation"). ``policies`` adds, after
-    ``controllers``, a policy file per label (``--compare``); ``network_alone`` then adds each policy
-    flown (``policy``, the "policy" controller's file, and ``policies``) without its classical stages,
-    labelled ``NETWORK_ALONE``."""
+    ``controllers``, a policy file per label (``--compare``); ``network_alone`` then adds the policies
+    it names ("policy": the "policy" controller, flying ``policy``; a label of ``policies``) without
+    their classical stages, labelled ``NETWORK_ALONE``."""
     if split not in SPLITS:
         raise ValueError(f"split must be one of {', '.join(SPLITS)}, got {split!r}")
     if not 1 <= episodes <= len(SPLITS[split]):
         raise ValueError(f"episodes must be 1 to {len(SPLITS[split])} (the {split} set's size), got {episodes}")
     flown = [(c, None, None, False) for c in controllers] + [("policy", str(p), label, False)
                                                              for label, p in (policies or {}).items()]
-    if network_alone:
-        flown += [("policy", path if label else policy, NETWORK_ALONE.format(label or ctl), True)
-                  for ctl, path, label, _ in flown if ctl == "policy"]
+    flown += [("policy", path if label else policy, NETWORK_ALONE.format(label or ctl), True)
+              for ctl, path, label, _ in flown if ctl == "policy" and (label or ctl) in network_alone]
     return [BenchJob(f, dict(c), ctl, k, quick, split, path, label, alone) for f in families
             for c in FAMILIES[f].conditions for k in range(episodes) for ctl, path, label, alone in flown]
 
