@@ -14,7 +14,7 @@ from jsbsim_env.control.observation import OBS_SIZE, ActionError, action_to_comm
 from jsbsim_env.control.policy import PolicyFileError, PolicyRuntime, export_onnx, load_policy
 from jsbsim_env.control.stack import StackSettings
 from jsbsim_env.task.attitude import AttitudeTask, TaskConfig
-from jsbsim_env.task.versions import LATEST, V0, V1
+from jsbsim_env.task.versions import LATEST, V0, V1, V3
 
 LEVEL = np.array([10000.0, 0, 0, 0, 0, 0, 10.0, 0, 0, 0, 0, 0, 0.5])  # scales to zeros, as does GOAL
 GOAL = np.array([0.0, 0.0, 10.0])
@@ -119,7 +119,7 @@ def test_a_nan_measurement_is_a_clear_error_not_a_command(policy_file, backend):
     assert stack.last_action is None and stack.surface_trim.trim_deg == [0.0, 0.0] == stack.goal_trim.offset_rad
 
 
-@pytest.mark.parametrize("version", [V0, V1], ids=lambda v: v.env_id)
+@pytest.mark.parametrize("version", [V0, V1, V3], ids=lambda v: v.env_id)
 def test_the_trainer_writes_its_task_version_and_flight_stack_and_the_runtime_flies_it(version, tmp_path,
                                                                                        untrained_policy):
     path = untrained_policy(tmp_path / "policy.pt", seed=3, task=version.env_id)
@@ -130,6 +130,7 @@ def test_the_trainer_writes_its_task_version_and_flight_stack_and_the_runtime_fl
     assert runtime.meta["stack"] == runtime.stack.settings == version.flight_stack and runtime.window == 8
     assert (runtime.stack.goal_trim is None) == (version.flight_stack.goal_trim_time_constant_s == 0.0)
     assert (runtime.stack.surface_trim is None) == (version.flight_stack.surface_trim_gain == 0.0)
+    assert runtime.observation_size == version.task.observation_size == runtime.actor.net.obs_size
     if runtime.stack.needs_interval:
         with pytest.raises(ValueError, match="control interval dt_s"):
             runtime.act(LEVEL, GOAL)
@@ -175,6 +176,15 @@ def test_an_old_policy_file_with_stages_this_version_does_not_have_is_refused_na
 def test_a_policy_file_with_a_stack_this_version_cannot_fly_is_refused(policy_file, tmp_path, stack, named):
     with pytest.raises(PolicyFileError, match=named):
         load_policy(_with(policy_file, tmp_path, stack=stack))
+
+
+def test_a_policy_file_whose_network_does_not_read_what_its_stack_gives_is_refused_naming_both_sizes(
+        tmp_path, untrained_policy):
+    path = untrained_policy(tmp_path / "v3.pt", seed=3, task=V3.env_id)
+    stripped = _with(path, tmp_path, "stripped.pt", stack=StackSettings(8).to_dict())  # no error integrals
+    with pytest.raises(PolicyFileError, match="observations of 23 values, and its control stack gives 20") as err:
+        load_policy(stripped)
+    assert str(stripped) in str(err.value)
 
 
 def test_a_stale_onnx_export_beside_a_rewritten_policy_is_not_used(policy_file, tmp_path):
