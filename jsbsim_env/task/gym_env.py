@@ -1,6 +1,8 @@
 """Gymnasium environment over the same task, registered in its versions (``jsbsim_env.task.versions``):
 ``SolarUAVAttitude-v0`` (the paper's task) and ``SolarUAVAttitude-v1`` (the task the shipped
-controller trained on).
+controller trained on). Versions after the default (``versions.LATEST``) are candidates and
+register in the ``candidates`` namespace (``gym.make("candidates/SolarUAVAttitude-v3")``), so that
+gymnasium does not advise every user of the default to "upgrade" to one.
 
     >>> import gymnasium as gym, jsbsim_env
     >>> env = gym.make("SolarUAVAttitude-v1")
@@ -51,11 +53,23 @@ class SolarUAVAttitudeGymEnv(gym.Env):
 ENV_ID = "SolarUAVAttitude-v0"  # the paper's task; jsbsim_env.task.versions lists every version
 
 
+CANDIDATES_NAMESPACE = "candidates"
+
+
+def gym_id(env_id: str) -> str:
+    """The gymnasium id of the task version ``env_id``: itself up to the default version, in the
+    ``candidates`` namespace after it."""
+    from jsbsim_env.task.versions import LATEST, VERSIONS
+
+    order = list(VERSIONS)
+    return env_id if order.index(env_id) <= order.index(LATEST) else f"{CANDIDATES_NAMESPACE}/{env_id}"
+
+
 def register() -> None:
     """Register every task version with gymnasium (done on ``import jsbsim_env``)."""
     from jsbsim_env.task.versions import VERSIONS
 
     for env_id, version in VERSIONS.items():
-        if env_id not in gym.registry:
-            gym.register(id=env_id, entry_point="jsbsim_env.task.gym_env:SolarUAVAttitudeGymEnv",
+        if gym_id(env_id) not in gym.registry:
+            gym.register(id=gym_id(env_id), entry_point="jsbsim_env.task.gym_env:SolarUAVAttitudeGymEnv",
                          max_episode_steps=None, kwargs={"config": version.task})
