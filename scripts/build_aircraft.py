@@ -1,4 +1,4 @@
-"""Regenerate the solar UAV's aerodynamic tables and JSBSim files from its documented geometry."""
+"""Build an aircraft's aerodynamic tables and JSBSim files from its description file (the paper's aircraft by default)."""
 
 import sys
 

@@ -166,7 +166,7 @@ def airplane(geometry: AircraftGeometry, cg_x_m: float, parts=("wing", "htail", 
         fuselages.append(asb.Fuselage(name="pod_and_boom", xsecs=[
             asb.FuselageXSec(xyz_c=[x, 0, 0], radius=r) for x, r in geometry.fuselage_stations_m]))
     to_cg = [-cg_x_m, 0.0, -geometry.cg_z_m]
-    return asb.Airplane(name="solar_uav", xyz_ref=[0.0, 0.0, 0.0], wings=[w.translate(to_cg) for w in wings],
+    return asb.Airplane(name=geometry.name, xyz_ref=[0.0, 0.0, 0.0], wings=[w.translate(to_cg) for w in wings],
                         fuselages=[f.translate(to_cg) for f in fuselages], s_ref=geometry.reference_area_m2,
                         c_ref=geometry.reference_chord_m, b_ref=geometry.reference_span_m)
 

@@ -1,36 +1,64 @@
-"""Regenerate the solar UAV: aerodynamic data from the geometry, then the JSBSim files.
+"""Build an aircraft from its description file: aerodynamic data from the geometry, then the JSBSim files.
 
-``python scripts/build_aircraft.py`` runs the whole chain (needs the ``aero`` extra);
-``--from-data`` rewrites the XML from the committed ``aero_data.json`` only.
+``python scripts/build_aircraft.py`` builds the paper's aircraft (``aircraft/solar_uav.toml``)
+into the package (needs the ``aero`` extra); ``python scripts/build_aircraft.py my_uav.toml --out
+DIR`` builds another into ``DIR``, a JSBSim root: ``DIR/aircraft/<name>/`` holds its files and
+``DIR/aero_data.json`` its aerodynamic data set. ``--from-data`` rewrites the XML from the saved
+data set only.
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
+from pathlib import Path
 
 from .. import aircraft_dir
 from . import aero_data, analysis, xml_writer
-from .geometry import AircraftGeometry
+from .description import PAPER_AIRCRAFT, DescriptionError, load_description
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
                                      allow_abbrev=False)
+    parser.add_argument("description", nargs="?", type=Path, default=PAPER_AIRCRAFT,
+                        help="the aircraft's description file (TOML; docs/aircraft.md); the paper's aircraft when "
+                             "omitted")
+    parser.add_argument("--out", type=Path, default=None,
+                        help="folder to build into (a JSBSim root: DIR/aircraft/<name>/); the package's own "
+                             "aircraft folder when omitted, which only the paper's aircraft may use")
     parser.add_argument("--from-data", action="store_true",
                         help="skip the aerodynamic analysis and write the XML from the saved data set")
     args = parser.parse_args(argv)
-    geometry = AircraftGeometry()
+    try:
+        geometry = load_description(args.description)
+    except DescriptionError as err:
+        print(f"build_aircraft: {err}", file=sys.stderr)
+        return 2
+    if args.out is None:
+        if geometry.name != PAPER_AIRCRAFT.stem:
+            print(f"build_aircraft: {args.description} describes {geometry.name!r}, not the paper's aircraft: give "
+                  "--out DIR to build it there", file=sys.stderr)
+            return 2
+        data_path, folder = aero_data.DATA_PATH, aircraft_dir(geometry.name)
+    else:
+        data_path, folder = args.out / "aero_data.json", args.out / "aircraft" / geometry.name
     if args.from_data:
-        data = aero_data.load()
+        try:
+            data = aero_data.load(data_path)
+        except ValueError as err:
+            print(f"build_aircraft: {err}; build without --from-data first", file=sys.stderr)
+            return 2
     else:
         start = time.perf_counter()
         data = aero_data.compute_aero_data(geometry)
-        aero_data.save(data)
-        print(f"aerodynamic data computed in {time.perf_counter() - start:.1f} s -> {aero_data.DATA_PATH}")
+        data_path.parent.mkdir(parents=True, exist_ok=True)
+        aero_data.save(data, data_path)
+        print(f"aerodynamic data computed in {time.perf_counter() - start:.1f} s -> {data_path}")
     files = xml_writer.aircraft_files(geometry, data)
-    xml_writer.write(files, aircraft_dir())
-    print(f"wrote {len(files)} files under {aircraft_dir()}")
+    xml_writer.write(files, folder)
+    print(f"wrote {len(files)} files under {folder}")
     st = data["stability"]
     print(f"CG x = {st['cg_x_m']:.3f} m, neutral point x = {st['neutral_point_x_m']:.3f} m, "
           f"static margin {st['static_margin']:.2f} MAC, cruise alpha {st['cruise_alpha_deg']:.2f} deg")

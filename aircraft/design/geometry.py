@@ -84,6 +84,10 @@ class ContactPoint:
 class AircraftGeometry:
     """Everything the aerodynamic, mass and propulsion models are built from."""
 
+    name: str = "solar_uav"  # the JSBSim aircraft name, also the name of its folder
+    # What the aircraft is, for its JSBSim file header.
+    description: str = ("Large solar-powered UAV: 35 m span, 359 kg, four electric propellers, conventional tail. "
+                        "Reproduces the aircraft of Yan et al., Drones 2024, 8(9):428, Table 1.")
     wing: WingGeometry = field(default_factory=WingGeometry)
     aileron: ControlSurfaceSpan = field(default_factory=ControlSurfaceSpan)
     # Tail volume 0.40, typical of sailplanes and HALE aircraft (0.35-0.5); symmetric section.

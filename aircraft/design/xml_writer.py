@@ -3,9 +3,9 @@
 Pure Python and numpy: the same geometry and ``aero_data.json`` always give the same bytes, which
 is what lets a test check that the committed XML is what the generator writes.
 
-Layout (JSBSim conventions; the folder is ``aircraft/solar_uav``)::
+Layout (JSBSim conventions; the folder is ``aircraft/<name>``, ``aircraft/solar_uav`` for the paper's)::
 
-    solar_uav.xml            top file, one include per concern
+    <name>.xml               top file, one include per concern
     Metrics.xml MassBalance.xml GroundReactions.xml Propulsion.xml
     FlightControl.xml Aerodynamics.xml
     Engines/motor.xml Engines/propeller.xml
@@ -19,6 +19,7 @@ Layout (JSBSim conventions; the folder is ``aircraft/solar_uav``)::
 from __future__ import annotations
 
 from pathlib import Path
+from xml.sax.saxutils import escape
 
 import numpy as np
 
@@ -68,11 +69,10 @@ def _location(tag_name: str, xyz_m, name: str | None = None, indent: str = "    
 
 
 def top_file(g: AircraftGeometry) -> str:
-    return HEADER + f"""<fdm_config name="solar_uav" version="2.0" release="ANALYTICAL">
+    return HEADER + f"""<fdm_config name="{g.name}" version="2.0" release="ANALYTICAL">
   <fileheader>
     <author>solar-uav-rl</author>
-    <description>Large solar-powered UAV: 35 m span, {fmt(g.mass_kg)} kg, four electric propellers,
-      conventional tail. Reproduces the aircraft of Yan et al., Drones 2024, 8(9):428, Table 1.
+    <description>{escape(g.description)}
       Aerodynamics from the documented geometry in aircraft/design (AeroSandbox vortex lattice,
       AeroBuildup with NeuralFoil, strip theory for the control surfaces).</description>
     <note>Rigid-body model: the paper's elastic-deformation terms are left out.</note>
@@ -476,7 +476,7 @@ def flight_control(g: AircraftGeometry) -> str:
      Signs: elevator trailing edge down positive; rudder trailing edge left positive; aileron
      command positive puts the right aileron down and the left aileron up (each side's position
      is positive in its own sense: right down, left up). -->
-<flight_control name="solar_uav">
+<flight_control name="{g.name}">
   <property value="0" persistent="true">fcs/backlash-width-deg</property>
   <!-- Every servo's rate limit, settable at run time (robustness sweeps). -->
   <property value="{rate}">fcs/surface-rate-limit-deg_s</property>
@@ -675,7 +675,7 @@ RESET_POINTS = ((1000.0, 10.5), (10000.0, 17.2), (20000.0, 37.1))
 def aircraft_files(g: AircraftGeometry, data: dict) -> dict[str, str]:
     """Every file of the aircraft folder, relative path -> text."""
     return {
-        "solar_uav.xml": top_file(g),
+        f"{g.name}.xml": top_file(g),
         "Metrics.xml": metrics(g, data),
         "MassBalance.xml": mass_balance(g, data),
         "GroundReactions.xml": ground_reactions(g),

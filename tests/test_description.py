@@ -1,0 +1,149 @@
+"""An aircraft described in a TOML file (``aircraft.design.description``): the paper's aircraft
+builds from its file to today's model, and a file that cannot describe an aircraft is refused,
+naming the file and the key."""
+
+from __future__ import annotations
+
+import re
+import shutil
+
+import pytest
+
+import aircraft
+from aircraft.design import aero_data
+from aircraft.design.build import main as build_main
+from aircraft.design.description import (
+    PAPER_AIRCRAFT,
+    SECTIONS,
+    DescriptionError,
+    load_description,
+)
+from aircraft.design.geometry import AircraftGeometry
+
+PAPER_TEXT = PAPER_AIRCRAFT.read_text()
+
+
+def _edited(tmp_path, old: str, new: str, name: str = "edited.toml"):
+    """The paper's file with the first ``old`` (a regular expression, one line) replaced by ``new``."""
+    text, n = re.subn(old, new, PAPER_TEXT, count=1, flags=re.MULTILINE)
+    assert n == 1, old
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_the_papers_aircraft_file_describes_todays_aircraft_exactly():
+    assert load_description(PAPER_AIRCRAFT) == AircraftGeometry()
+
+
+def test_the_papers_aircraft_builds_from_its_file_to_todays_model(tmp_path, capsys):
+    # The build with the committed aerodynamic data set writes the committed files: same model,
+    # same fingerprint.
+    shutil.copy(aero_data.DATA_PATH, tmp_path / "aero_data.json")
+    assert build_main([str(PAPER_AIRCRAFT), "--out", str(tmp_path), "--from-data"]) == 0
+    built = tmp_path / "aircraft" / "solar_uav"
+    assert "wrote 16 files" in capsys.readouterr().out
+    assert aircraft.model_fingerprint(folder=built) == aircraft.model_fingerprint()
+    for path in built.rglob("*.xml"):
+        rel = path.relative_to(built)
+        if rel.name not in ("reset01.xml", "reset02.xml"):  # those the trim rewrites (test_runscripts)
+            assert path.read_text() == (aircraft.aircraft_dir() / rel).read_text(), rel
+
+
+def test_another_aircraft_needs_a_folder_of_its_own_and_from_data_needs_its_data(tmp_path, capsys):
+    other = _edited(tmp_path, r'^name = "solar_uav"$', 'name = "small_uav"')
+    assert build_main([str(other)]) == 2
+    assert "give --out DIR" in capsys.readouterr().err
+    assert build_main([str(other), "--out", str(tmp_path / "build"), "--from-data"]) == 2
+    assert "build without --from-data first" in capsys.readouterr().err
+    assert build_main([str(tmp_path / "missing.toml"), "--out", str(tmp_path)]) == 2
+    assert "missing.toml" in capsys.readouterr().err
+
+
+def _keys():
+    """Every (section, key) line of the paper's file that a ``key = value`` line sets, once each."""
+    section, seen = None, []
+    for line in PAPER_TEXT.splitlines():
+        head = re.match(r"^\[\[?(\w+)\]\]?", line)
+        if head:
+            section = head.group(1)
+            continue
+        key = re.match(r"^(\w+) = ", line)
+        if key and (section, key.group(1)) not in seen:
+            seen.append((section, key.group(1)))
+    return seen
+
+
+@pytest.mark.parametrize(("section", "key"), _keys(), ids=lambda x: str(x))
+def test_each_missing_key_is_named_with_the_file(tmp_path, section, key):
+    # The first line that sets the key goes (for the arrays of tables: the first table's).
+    text, seen, out = PAPER_TEXT.splitlines(), None, []
+    dropped = False
+    for line in text:
+        head = re.match(r"^\[\[?(\w+)\]\]?", line)
+        if head:
+            seen = head.group(1)
+        if not dropped and seen == section and re.match(rf"^{key} = ", line):
+            dropped = True
+            continue
+        out.append(line)
+    path = tmp_path / "missing_key.toml"
+    path.write_text("\n".join(out))
+    where = key if section is None else (f"{section}[0].{key}" if section in ("rotors", "contacts")
+                                         else f"{section}.{key}")
+    with pytest.raises(DescriptionError, match=re.escape(f"{where} is missing")) as err:
+        load_description(path)
+    assert str(path) in str(err.value)
+
+
+def test_every_section_is_in_the_papers_file_and_a_missing_one_is_named(tmp_path):
+    assert {s for s, _ in _keys() if s} == set(SECTIONS)
+    text = re.sub(r"^\[actuators\].*?(?=^\[\[contacts)", "", PAPER_TEXT, flags=re.MULTILINE | re.DOTALL)
+    path = tmp_path / "no_actuators.toml"
+    path.write_text(text)
+    with pytest.raises(DescriptionError, match=re.escape("[actuators] is missing")):
+        load_description(path)
+
+
+@pytest.mark.parametrize(("old", "new", "named"), [
+    (r"^span_m = 35.0", 'span_m = "35"', "wing.span_m must be a number"),
+    (r"^blade_count = 2", "blade_count = 2.0", "propeller.blade_count must be a whole number"),
+    (r"^blade_count = 2", "blade_count = true", "propeller.blade_count must be a whole number"),
+    (r"^inertia_kg_m2 = .*$", "inertia_kg_m2 = [15221.0, 1827.5, 16967.0]", "mass.inertia_kg_m2 must have 4 values"),
+    (r"^root_le_m = .*$", 'root_le_m = [9.0, 0.0, "z"]', r"horizontal_tail.root_le_m[2] must be a number"),
+    (r"^mass_kg = 359.0", "mass_kg = nan", "mass.mass_kg must be finite"),
+    (r"^span_m = 35.0", "span_m = 35.0\nspan_ft = 114.8", "wing.span_ft is not a key of [wing]"),
+    (r"^name = .*$", 'name = "my uav"', "name must be letters, digits and underscores"),
+    (r"^\[mass\]", "[masses]\n[mass]", "masses is not a section"),
+    (r"^name = .*$", 'name = "a\nb', "not a TOML file"),
+])
+def test_a_wrong_value_is_named_with_the_file(tmp_path, old, new, named):
+    path = _edited(tmp_path, old, new)
+    with pytest.raises(DescriptionError, match=re.escape(named)) as err:
+        load_description(path)
+    assert str(err.value).startswith(f"{path}: ")
+
+
+@pytest.mark.parametrize(("old", "new", "named"), [
+    (r"^span_m = 35.0", "span_m = -35.0", "wing.span_m must be above 0"),
+    (r"^area_m2 = 78.5", "area_m2 = 40.0", "the area is too small for that planform"),
+    (r"^kink_y_m = 8.75", "kink_y_m = 18.0", "wing.kink_y_m (18.0 m) must lie inside the semi-span"),
+    (r"^outer_y_m = 16.5", "outer_y_m = 18.0", "must run outwards within the semi-span"),
+    (r"^chord_fraction = 0.25", "chord_fraction = 1.5", "aileron.chord_fraction must lie in (0, 1)"),
+    (r"^efficiency = 0.9", "efficiency = 0.0", "horizontal_tail.efficiency must lie in (0, 1]"),
+    (r"^mass_kg = 359.0", "mass_kg = 0.0", "mass.mass_kg must be above 0"),
+    (r"^inertia_kg_m2 = .*$", "inertia_kg_m2 = [15221.0, 1827.5, 30000.0, 37.0]", "is no rigid body's inertia"),
+    (r"^static_margin = 0.15", "static_margin = -0.05", "mass.static_margin must lie in (0, 0.5)"),
+    (r"^hub_diameter_m = 0.22", "hub_diameter_m = 3.0", "propeller.hub_diameter_m (3.0 m) must be below"),
+    (r"^sense = -1", "sense = 2", "rotors[0].sense must be +1"),
+    (r"^motor_efficiency = 0.85", "motor_efficiency = 1.2", "propulsion.motor_efficiency must lie in (0, 1]"),
+    (r"^surface_rate_limit_deg_per_s = 100.0", "surface_rate_limit_deg_per_s = 0.0",
+     "actuators.surface_rate_limit_deg_per_s must be above 0"),
+    (r'^kind = "BOGEY"', 'kind = "WHEEL"', "contacts[0].kind must be BOGEY or STRUCTURE"),
+    (r"^fuselage_stations_m = .*$", "fuselage_stations_m = [[1.0, 0.1], [0.0, 0.2]]", "in increasing x"),
+])
+def test_a_value_no_aircraft_can_have_is_refused_by_name(tmp_path, old, new, named):
+    path = _edited(tmp_path, old, new)
+    with pytest.raises(DescriptionError, match=re.escape(named)) as err:
+        load_description(path)
+    assert str(path) in str(err.value)
