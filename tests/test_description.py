@@ -125,6 +125,10 @@ def test_a_wrong_value_is_named_with_the_file(tmp_path, old, new, named):
 
 
 @pytest.mark.parametrize(("old", "new", "named"), [
+    (r"^altitude_range_m = .*$", "altitude_range_m = [20000.0, 0.0]", "envelope.altitude_range_m must be"),
+    (r"^reynolds = .*$", "reynolds = [3.0e5, 1.0e6, 5.0e5]", "envelope.reynolds must be two or more breakpoints"),
+    (r"^cruise_reynolds = .*$", "cruise_reynolds = 1.2e6", "envelope.cruise_reynolds (1.2e+06) must be one of"),
+    (r"^lattice_reynolds = .*$", "lattice_reynolds = 5e6", "envelope.lattice_reynolds (5e+06) must lie within"),
     (r"^span_m = 35.0", "span_m = -35.0", "wing.span_m must be above 0"),
     (r"^area_m2 = 78.5", "area_m2 = 40.0", "the area is too small for that planform"),
     (r"^kink_y_m = 8.75", "kink_y_m = 18.0", "wing.kink_y_m (18.0 m) must lie inside the semi-span"),

@@ -18,7 +18,6 @@ import numpy as np
 from .geometry import AircraftGeometry
 
 DATA_PATH = Path(__file__).with_name("aero_data.json")
-CRUISE_REYNOLDS = 1.0e6  # the breakpoint nearest the middle of the envelope
 RHO0_KG_M3 = 1.225
 G_MPS2 = 9.80665
 
@@ -36,8 +35,10 @@ def compute_aero_data(geometry: AircraftGeometry | None = None) -> dict:
     from .propeller import propeller_coefficients
 
     alpha = np.array(an.ALPHA_DEG, dtype=float)
-    j_cruise = an.REYNOLDS.index(CRUISE_REYNOLDS)
-    cl_cruise = geometry.mass_kg * G_MPS2 / (0.5 * RHO0_KG_M3 * an.REFERENCE_EAS_MPS**2 * geometry.reference_area_m2)
+    envelope = geometry.envelope
+    j_cruise = envelope.reynolds.index(envelope.cruise_reynolds)
+    cl_cruise = geometry.mass_kg * G_MPS2 / (0.5 * RHO0_KG_M3 * envelope.reference_eas_mps**2
+                                             * geometry.reference_area_m2)
 
     # Neutral point from the built-up polar about a reference point, then the CG at the chosen
     # static margin ahead of it; every table after that is computed about the CG.
@@ -70,7 +71,7 @@ def compute_aero_data(geometry: AircraftGeometry | None = None) -> dict:
         },
         "grids": {
             "alpha_deg": list(an.ALPHA_DEG),
-            "reynolds": list(an.REYNOLDS),
+            "reynolds": list(envelope.reynolds),
             "vlm_alpha_deg": list(an.VLM_ALPHA_DEG),
             "beta_deg": list(an.BETA_DEG),
             "deflection_deg": list(an.DEFLECTION_DEG),

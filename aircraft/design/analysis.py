@@ -27,10 +27,12 @@ Axes: lift, drag and side force in wind axes; rolling, pitching and yawing momen
 about the CG, except the aileron's, which strip theory gives in stability axes and the XML writer
 rotates to body axes with the angle of attack.
 
-Reynolds number is the flight-condition variable: at equivalent airspeeds of 8-12 m/s, Mach stays
+Reynolds number is the flight-condition variable (the breakpoints are the description's
+``envelope.reynolds``): for the paper's aircraft at equivalent airspeeds of 8-12 m/s, Mach stays
 below 0.15 while the Reynolds number on the mean chord falls from about 1.9e6 to 0.4e6 between sea
-level and 20 km. Each Reynolds breakpoint is evaluated at the altitude where 10 m/s EAS gives it,
-so the Mach number that goes with it is the one the aircraft meets there.
+level and 20 km. Each Reynolds breakpoint is evaluated at the altitude where the envelope's
+reference EAS (10 m/s) gives it, so the Mach number that goes with it is the one the aircraft meets
+there.
 """
 
 from __future__ import annotations
@@ -42,22 +44,18 @@ import numpy as np
 from .geometry import AircraftGeometry, TailSurface
 
 RHO0_KG_M3 = 1.225  # sea-level density of the 1976 standard atmosphere
-REFERENCE_EAS_MPS = 10.0  # the equivalent airspeed each Reynolds breakpoint is evaluated at
-
-REYNOLDS = (3.0e5, 5.0e5, 7.5e5, 1.0e6, 1.5e6, 2.0e6)
 ALPHA_DEG = (-90, -60, -45, -30, -20, -16, -12, -10, -8, -6, -4, -2, 0, 2, 4, 6, 8, 10, 12, 14, 16,
              18, 20, 25, 30, 45, 60, 90)
 VLM_ALPHA_DEG = (-10, -6, -2, 0, 2, 4, 6, 8, 10, 12, 14)
 BETA_DEG = (0, 4, 8, 12, 16, 20, 30)
 DEFLECTION_DEG = (-30, -25, -20, -15, -10, -6, -3, 0, 3, 6, 10, 15, 20, 25, 30)
-LATTICE_REYNOLDS = 1.0e6  # the flight condition of the vortex lattice (mid-envelope)
 
 
 def flight_condition(reynolds: float, geometry: AircraftGeometry) -> tuple[float, float]:
     """Altitude (m) and true airspeed (m/s) at which the mean chord sees ``reynolds``.
 
-    The altitude is the one where 10 m/s EAS gives that Reynolds number; outside 0-20 km the
-    altitude is held at the end and the airspeed changed instead.
+    The altitude is the one where the envelope's reference EAS gives that Reynolds number; outside
+    the envelope's altitude range the altitude is held at the end and the airspeed changed instead.
     """
     import aerosandbox as asb
 
@@ -66,16 +64,17 @@ def flight_condition(reynolds: float, geometry: AircraftGeometry) -> tuple[float
         tas_mps = eas_mps * np.sqrt(RHO0_KG_M3 / atmo.density())
         return float(atmo.density() * tas_mps * geometry.reference_chord_m / atmo.dynamic_viscosity()), tas_mps
 
-    low, high = 0.0, 20000.0
+    eas_mps = geometry.envelope.reference_eas_mps
+    low, high = geometry.envelope.altitude_range_m
     for end in (low, high):
-        re_end, tas_end = reynolds_at(end, REFERENCE_EAS_MPS)
+        re_end, tas_end = reynolds_at(end, eas_mps)
         if (end == low and reynolds >= re_end) or (end == high and reynolds <= re_end):
             return end, tas_end * reynolds / re_end
     for _ in range(60):  # bisection: Reynolds number falls monotonically with altitude at fixed EAS
         mid = 0.5 * (low + high)
-        low, high = (mid, high) if reynolds_at(mid, REFERENCE_EAS_MPS)[0] > reynolds else (low, mid)
+        low, high = (mid, high) if reynolds_at(mid, eas_mps)[0] > reynolds else (low, mid)
     altitude_m = 0.5 * (low + high)
-    return altitude_m, reynolds_at(altitude_m, REFERENCE_EAS_MPS)[1]
+    return altitude_m, reynolds_at(altitude_m, eas_mps)[1]
 
 
 def _operating_point(reynolds: float, geometry: AircraftGeometry, alpha_deg=0.0, beta_deg=0.0):
@@ -199,8 +198,8 @@ def longitudinal_polar(geometry: AircraftGeometry, cg_x_m: float) -> dict[str, n
     alpha = np.array(ALPHA_DEG, dtype=float)
     wing_body = airplane(geometry, cg_x_m, parts=("wing", "vtail", "fuselage"))
     tail_only = airplane(geometry, cg_x_m, parts=("htail",))
-    out = {k: np.zeros((alpha.size, len(REYNOLDS))) for k in ("CL", "CD", "Cm")}
-    for j, re in enumerate(REYNOLDS):
+    out = {k: np.zeros((alpha.size, len(geometry.envelope.reynolds))) for k in ("CL", "CD", "Cm")}
+    for j, re in enumerate(geometry.envelope.reynolds):
         wb = asb.AeroBuildup(wing_body, _operating_point(re, geometry, alpha_deg=alpha)).run()
         cl_wing = np.asarray(wb["CL"], dtype=float)
         # Downwash grows with wing lift and vanishes past stall as the wake lifts off; hold it to the
@@ -282,7 +281,7 @@ def _lattice_point(geometry: AircraftGeometry, cg_x_m: float, incidence_deg: flo
     """Lattice coefficients (and derivatives) of the aircraft at one α, the tails' share scaled by
     their efficiency: wing alone + η (wing with tails − wing alone), the same η the polar and the
     control surfaces use. The tails' share includes the wing's downwash on them."""
-    op = _operating_point(LATTICE_REYNOLDS, geometry, alpha_deg=alpha_deg)
+    op = _operating_point(geometry.envelope.lattice_reynolds, geometry, alpha_deg=alpha_deg)
     keys = VLM_DERIVATIVES + ("CL", "CLa", "Cma") if derivatives else ("CL",)
     runs = []
     for parts in (("wing",), ("wing", "htail", "vtail")):
@@ -410,9 +409,9 @@ def control_increments(geometry: AircraftGeometry, cg_x_m: float, lift_slopes: d
 
     keys = [f"{k}_aileron" for k in ("CL", "CD", "CY", "Cl", "Cm", "Cn", "Cn_aileron_induced")]
     keys += [f"{k}_elevator" for k in ("CL", "CD", "Cm")] + [f"{k}_rudder" for k in ("CY", "CD", "Cl", "Cm", "Cn")]
-    out = {k.replace("_aileron_induced_aileron", "_aileron_induced"): np.zeros((len(DEFLECTION_DEG), len(REYNOLDS)))
+    out = {k.replace("_aileron_induced_aileron", "_aileron_induced"): np.zeros((len(DEFLECTION_DEG), len(geometry.envelope.reynolds)))
            for k in keys}
-    for j, re in enumerate(REYNOLDS):
+    for j, re in enumerate(geometry.envelope.reynolds):
         mach = _mach(re, geometry)
         # Aileron: wing section, Reynolds number scaled to the local chord.
         re_ail = re * float(np.mean(chord)) / c
@@ -533,7 +532,7 @@ def profile_yaw_damping(geometry: AircraftGeometry, lift_coefficient: float) -> 
     mean_chord_m = geometry.reference_area_m2 / geometry.wing.span_m
     section_alpha_deg = np.linspace(-8.0, 8.0, 33)
     out = []
-    for re in REYNOLDS:
+    for re in geometry.envelope.reynolds:
         r = asb.Airfoil(geometry.wing.airfoil).get_aero_from_neuralfoil(
             alpha=section_alpha_deg, Re=re * mean_chord_m / geometry.reference_chord_m,
             mach=_mach(re, geometry), model_size="large")
@@ -565,7 +564,7 @@ def aileron_induced_yaw_factor(geometry: AircraftGeometry, cg_x_m: float, incide
                                                              for w in (right, left)],
                              s_ref=geometry.reference_area_m2, c_ref=geometry.reference_chord_m,
                              b_ref=geometry.reference_span_m)
-        results.append(_vortex_lattice(plane, _operating_point(LATTICE_REYNOLDS, geometry, alpha_deg=alpha_deg),
+        results.append(_vortex_lattice(plane, _operating_point(geometry.envelope.lattice_reynolds, geometry, alpha_deg=alpha_deg),
                                        mesh).run())
     alpha = np.radians(alpha_deg)
     d_roll = float(results[1]["Cl"] - results[0]["Cl"])

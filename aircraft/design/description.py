@@ -9,6 +9,7 @@ naming the file and the key (``wing.span_m``), never a model built from it.
 | section | fields |
 |---|---|
 | (top) | ``name``: the JSBSim aircraft name, also its folder's; ``description``: what it is (its JSBSim file header) |
+| ``[envelope]`` | ``FlightEnvelope``: altitude range, reference EAS, the analysis's Reynolds breakpoints |
 | ``[wing]`` | ``WingGeometry``: airfoil, span, area, planform break, root chord, dihedral, twist, incidence |
 | ``[aileron]`` | ``ControlSurfaceSpan``: spanwise extent, chord fraction |
 | ``[horizontal_tail]``, ``[vertical_tail]`` | ``TailSurface``: section, leading edges, chords, incidence, control chord, efficiency |
@@ -24,12 +25,21 @@ naming the file and the key (``wing.span_m``), never a model built from it.
 
 from __future__ import annotations
 
+import itertools
 import math
 import typing
 from dataclasses import fields
 from pathlib import Path
 
-from .geometry import AircraftGeometry, ContactPoint, ControlSurfaceSpan, Rotor, TailSurface, WingGeometry
+from .geometry import (
+    AircraftGeometry,
+    ContactPoint,
+    ControlSurfaceSpan,
+    FlightEnvelope,
+    Rotor,
+    TailSurface,
+    WingGeometry,
+)
 from .propeller import PropellerGeometry
 
 try:
@@ -39,6 +49,7 @@ except ModuleNotFoundError:  # Python 3.10
 
 # Section -> the AircraftGeometry fields it holds, flat (a dataclass section is the field itself).
 SECTIONS: dict[str, tuple[str, ...]] = {
+    "envelope": ("envelope",),
     "wing": ("wing",),
     "aileron": ("aileron",),
     "horizontal_tail": ("horizontal_tail",),
@@ -54,7 +65,7 @@ SECTIONS: dict[str, tuple[str, ...]] = {
                   "elevator_limit_deg", "rudder_limit_deg"),
     "contacts": ("contacts",),
 }
-_NESTED = {"wing": WingGeometry, "aileron": ControlSurfaceSpan, "horizontal_tail": TailSurface,
+_NESTED = {"envelope": FlightEnvelope, "wing": WingGeometry, "aileron": ControlSurfaceSpan, "horizontal_tail": TailSurface,
            "vertical_tail": TailSurface, "propeller": PropellerGeometry}
 _LISTS = {"rotors": Rotor, "contacts": ContactPoint}  # arrays of tables
 _TOP = ("name", "description")  # the keys before the first section
@@ -157,10 +168,25 @@ def _positive(value: float, key: str) -> None:
 
 
 def check(g: AircraftGeometry) -> None:
-    """Refuse what no aircraft can have (``ValueError`` naming the key): sizes, masses, inertias,
+    """Refuse what no aircraft can have (``ValueError`` naming the key): an envelope out of order,
+    sizes, masses, inertias,
     lags and limits not above 0, fractions outside (0, 1), a planform whose tip chord the area
     makes zero or negative, ailerons beyond the tip, a static margin that is not stable, rotors
     turning neither way."""
+    e = g.envelope
+    low, high = e.altitude_range_m
+    if not 0.0 <= low < high <= 30000.0:
+        raise ValueError(f"envelope.altitude_range_m must be [low, high] with 0 <= low < high <= 30000 m, got "
+                         f"{list(e.altitude_range_m)}")
+    _positive(e.reference_eas_mps, "envelope.reference_eas_mps")
+    re = e.reynolds
+    if len(re) < 2 or re[0] <= 0.0 or any(b <= a for a, b in itertools.pairwise(re)):
+        raise ValueError(f"envelope.reynolds must be two or more breakpoints above 0, increasing, got {list(re)}")
+    if e.cruise_reynolds not in re:
+        raise ValueError(f"envelope.cruise_reynolds ({e.cruise_reynolds:g}) must be one of envelope.reynolds")
+    if not re[0] <= e.lattice_reynolds <= re[-1]:
+        raise ValueError(f"envelope.lattice_reynolds ({e.lattice_reynolds:g}) must lie within envelope.reynolds "
+                         f"({re[0]:g} to {re[-1]:g})")
     w = g.wing
     for name in ("span_m", "area_m2", "kink_y_m", "root_chord_m"):
         _positive(getattr(w, name), f"wing.{name}")

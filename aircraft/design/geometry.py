@@ -81,6 +81,20 @@ class ContactPoint:
 
 
 @dataclass(frozen=True)
+class FlightEnvelope:
+    """Where the aircraft flies, as its aerodynamic analysis covers it: the Reynolds number on the
+    mean chord is the analysis's flight-condition variable, each breakpoint flown at the reference
+    equivalent airspeed at the altitude (within ``altitude_range_m``) where it gives that number."""
+
+    altitude_range_m: tuple[float, float] = (0.0, 20000.0)  # the paper's 0-20 km
+    reference_eas_mps: float = 10.0  # cruise EAS, the middle of the paper's 8-12 m/s
+    # 10 m/s EAS on the 2.27 m chord: about 1.9e6 at sea level, 0.4e6 at 20 km.
+    reynolds: tuple[float, ...] = (3.0e5, 5.0e5, 7.5e5, 1.0e6, 1.5e6, 2.0e6)
+    cruise_reynolds: float = 1.0e6  # the breakpoint of the cruise lift coefficient and static margin (mid-envelope)
+    lattice_reynolds: float = 1.0e6  # the flight condition of the vortex lattice (mid-envelope)
+
+
+@dataclass(frozen=True)
 class AircraftGeometry:
     """Everything the aerodynamic, mass and propulsion models are built from."""
 
@@ -88,6 +102,7 @@ class AircraftGeometry:
     # What the aircraft is, for its JSBSim file header.
     description: str = ("Large solar-powered UAV: 35 m span, 359 kg, four electric propellers, conventional tail. "
                         "Reproduces the aircraft of Yan et al., Drones 2024, 8(9):428, Table 1.")
+    envelope: FlightEnvelope = field(default_factory=FlightEnvelope)
     wing: WingGeometry = field(default_factory=WingGeometry)
     aileron: ControlSurfaceSpan = field(default_factory=ControlSurfaceSpan)
     # Tail volume 0.40, typical of sailplanes and HALE aircraft (0.35-0.5); symmetric section.
