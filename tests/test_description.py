@@ -151,3 +151,38 @@ def test_a_value_no_aircraft_can_have_is_refused_by_name(tmp_path, old, new, nam
     with pytest.raises(DescriptionError, match=re.escape(named)) as err:
         load_description(path)
     assert str(path) in str(err.value)
+
+
+SMALL_AIRCRAFT = PAPER_AIRCRAFT.with_name("small_solar_uav.toml")
+
+
+def test_the_small_example_is_unlike_the_papers_aircraft():
+    small, paper = load_description(SMALL_AIRCRAFT), AircraftGeometry()
+    assert small.name == "small_solar_uav" and small.wing.span_m == 5.0 and 10.0 <= small.mass_kg <= 20.0
+    assert small.envelope.altitude_range_m[1] < paper.envelope.altitude_range_m[1] / 5
+    assert len(small.rotors) == 2 and small.envelope.reference_eas_mps > paper.envelope.reference_eas_mps
+
+
+def test_the_small_example_builds_loads_in_jsbsim_and_trims_across_its_envelope(tmp_path, capsys):
+    """The whole chain on another aircraft (about 20 s): aerodynamic analysis, JSBSim files, then
+    the simulation loads it and trims at the envelope's corners."""
+    pytest.importorskip("aerosandbox")
+    from jsbsim_env.sim.simulation import Simulation
+
+    assert build_main([str(SMALL_AIRCRAFT), "--out", str(tmp_path)]) == 0
+    assert "wrote 16 files" in capsys.readouterr().out
+    folder = tmp_path / "aircraft" / "small_solar_uav"
+    assert (folder / "small_solar_uav.xml").is_file() and (tmp_path / "aero_data.json").is_file()
+    assert aircraft.model_fingerprint(folder=folder) != aircraft.model_fingerprint()
+    sim = Simulation(tmp_path, aircraft_name="small_solar_uav")
+    assert sim.inertia_kg_m2().ixx_kg_m2 == pytest.approx(15.0, rel=1e-3)
+    geometry = load_description(SMALL_AIRCRAFT)
+    low, high = geometry.envelope.altitude_range_m
+    for altitude_m in (low, high):
+        for eas_mps in (10.0, geometry.envelope.reference_eas_mps, 15.0):
+            trim = sim.trim(altitude_m, eas_mps, check_envelope=False)
+            assert 0.0 < trim.throttle < 1.0 and -10.0 < trim.alpha_deg < 14.0, (altitude_m, eas_mps)
+    cruise = sim.trim(low, geometry.envelope.reference_eas_mps, check_envelope=False)
+    # The trim's angle of attack is the analysis's cruise angle of attack.
+    cruise_alpha = aero_data.load(tmp_path / "aero_data.json")["stability"]["cruise_alpha_deg"]
+    assert cruise.alpha_deg == pytest.approx(cruise_alpha, abs=0.5)

@@ -35,6 +35,13 @@ DEFAULT_SIM_RATE_HZ = 120.0
 # Trim's first guess of the rotor speed per m/s of true airspeed: cruise trims lie at 24-26 rpm per
 # m/s (about a constant advance ratio at constant EAS). The full-throttle speed turns it into a throttle.
 ROTOR_RPM_GUESS_PER_TAS_MPS = 25.0
+_TRIM_BOUNDS = (np.array([-10.0, -30.0, 0.0]), np.array([14.0, 30.0, 1.0]))  # alpha deg, elevator deg, throttle
+
+
+def _trimmed(r: np.ndarray) -> bool:
+    """Whether residual accelerations (m/s², m/s², rad/s²) are those of a trim."""
+    return bool(np.all(np.abs(r[:2]) < 1e-3) and abs(r[2]) < 1e-4)
+
 
 # Rotor reference lag during a fast settle: a tenth of a 120 Hz step, well inside the Tustin
 # filter's stable range, so the rotors follow their speed controllers' own 0.03 s loop.
@@ -259,6 +266,33 @@ class Simulation:
         return float(sum(self.fdm[f"propulsion/engine[{i}]/thrust-lbs"] for i in range(self.engine_count)) * LBF_TO_N)
 
     # ------------------------------------------------------------------ trim
+    def _newton(self, altitude_m: float, tas_mps: float, throttle: float,
+                max_iterations: int) -> tuple[np.ndarray, np.ndarray]:
+        """Newton iteration on angle of attack, elevator and throttle from (0, 0, ``throttle``):
+        where it ends (x) and its residual accelerations (r)."""
+        x = np.array([0.0, 0.0, throttle])
+        steps = np.array([0.05, 0.05, 0.002])
+        scale = np.array([1.0, 1.0, 10.0])  # weight the pitch acceleration like the translational ones
+        r = self._residuals(altitude_m, tas_mps, x)
+        for _ in range(max_iterations):
+            if np.all(np.abs(r[:2]) < 1e-4) and abs(r[2]) < 1e-5:
+                break
+            jac = np.empty((3, 3))
+            for k in range(3):
+                dx = np.zeros(3)
+                dx[k] = steps[k]
+                jac[:, k] = (self._residuals(altitude_m, tas_mps, x + dx) - r) / steps[k]
+            delta = np.linalg.lstsq(jac * scale[:, None], -r * scale, rcond=None)[0]
+            step_limit = np.array([3.0, 5.0, 0.2])
+            delta = np.clip(delta, -step_limit, step_limit)
+            x_new = np.clip(x + delta, *_TRIM_BOUNDS)
+            r_new = self._residuals(altitude_m, tas_mps, x_new)
+            if np.linalg.norm(r_new * scale) > np.linalg.norm(r * scale) and np.any(x_new != x + delta):
+                # Pinned at a limit and not improving: the trim needs a control beyond its range.
+                break
+            x, r = x_new, r_new
+        return x, r
+
     def _residuals(self, altitude_m, tas_mps, x) -> np.ndarray:
         """Body accelerations (m/s², rad/s²) of steady level flight at alpha, elevator, throttle = x."""
         alpha_deg, elevator_deg, throttle = x
@@ -292,31 +326,19 @@ class Simulation:
         # Start where the rotor speed scales with true airspeed (constant advance ratio at constant
         # EAS): away from the motor's power limit, where the throttle has no effect on thrust.
         throttle_guess = ROTOR_RPM_GUESS_PER_TAS_MPS * tas_mps / self.fdm["fcs/rotor-speed-full-rpm"]
-        x = np.array([0.0, 0.0, float(np.clip(throttle_guess, 0.05, 0.9))])
-        steps = np.array([0.05, 0.05, 0.002])
-        scale = np.array([1.0, 1.0, 10.0])  # weight the pitch acceleration like the translational ones
-        bounds = (np.array([-10.0, -30.0, 0.0]), np.array([14.0, 30.0, 1.0]))
-        r = self._residuals(altitude_m, tas_mps, x)
-        for _ in range(max_iterations):
-            if np.all(np.abs(r[:2]) < 1e-4) and abs(r[2]) < 1e-5:
-                break
-            jac = np.empty((3, 3))
-            for k in range(3):
-                dx = np.zeros(3)
-                dx[k] = steps[k]
-                jac[:, k] = (self._residuals(altitude_m, tas_mps, x + dx) - r) / steps[k]
-            delta = np.linalg.lstsq(jac * scale[:, None], -r * scale, rcond=None)[0]
-            step_limit = np.array([3.0, 5.0, 0.2])
-            delta = np.clip(delta, -step_limit, step_limit)
-            x_new = np.clip(x + delta, *bounds)
-            r_new = self._residuals(altitude_m, tas_mps, x_new)
-            if np.linalg.norm(r_new * scale) > np.linalg.norm(r * scale) and np.any(x_new != x + delta):
-                # Pinned at a limit and not improving: the trim needs a control beyond its range.
-                break
-            x, r = x_new, r_new
-        if not (np.all(np.abs(r[:2]) < 1e-3) and abs(r[2]) < 1e-4):
+        x, r = self._newton(altitude_m, tas_mps, float(np.clip(throttle_guess, 0.05, 0.9)), max_iterations)
+        if not _trimmed(r):
+            # That start suits the paper's propellers; another aircraft's may windmill there. Start
+            # again at zero angle of attack from the highest throttle where the speed stops falling
+            # (at lower throttles a windmilling or idling rotor's drag can balance too).
+            scan = np.linspace(0.05, 0.95, 19)
+            udot = np.array([self._residuals(altitude_m, tas_mps, np.array([0.0, 0.0, t]))[0] for t in scan])
+            crossings = np.flatnonzero((udot[:-1] < 0.0) & (udot[1:] >= 0.0))
+            start = scan[crossings[-1] + 1] if crossings.size else scan[int(np.argmin(np.abs(udot)))]
+            x, r = self._newton(altitude_m, tas_mps, float(start), max_iterations)
+        if not _trimmed(r):
             names = ("angle of attack", "elevator", "throttle")
-            pinned = [n for n, v, lo, hi in zip(names, x, *bounds) if v <= lo + 1e-9 or v >= hi - 1e-9]
+            pinned = [n for n, v, lo, hi in zip(names, x, *_TRIM_BOUNDS) if v <= lo + 1e-9 or v >= hi - 1e-9]
             why = f"{', '.join(pinned)} at its limit" if pinned else "no convergence"
             raise TrimError(f"no trim at {altitude_m:g} m, EAS {airspeed_eas_mps:g} m/s: {why} "
                             f"(residual accelerations {np.array2string(r, precision=4)})")
