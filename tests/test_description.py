@@ -186,3 +186,18 @@ def test_the_small_example_builds_loads_in_jsbsim_and_trims_across_its_envelope(
     # The trim's angle of attack is the analysis's cruise angle of attack.
     cruise_alpha = aero_data.load(tmp_path / "aero_data.json")["stability"]["cruise_alpha_deg"]
     assert cruise.alpha_deg == pytest.approx(cruise_alpha, abs=0.5)
+
+
+def test_the_initial_conditions_shipped_with_a_model_lie_in_its_envelope():
+    from aircraft.design.xml_writer import isa_density_kg_m3, reset_points
+
+    # The paper's: 1, 10 and 20 km at 10 m/s EAS, as committed.
+    assert reset_points(AircraftGeometry()) == ((1000.0, 10.5), (10000.0, 17.2), (20000.0, 37.1))
+    small = load_description(SMALL_AIRCRAFT)
+    low, high = small.envelope.altitude_range_m
+    points = reset_points(small)
+    assert [h for h, _ in points] == [150.0, 1500.0, 3000.0] and all(low <= h <= high for h, _ in points)
+    assert all(tas >= small.envelope.reference_eas_mps for _, tas in points)
+    # The 1976 standard atmosphere's table (geometric altitude).
+    for altitude_m, rho in ((0.0, 1.2250), (5000.0, 0.73643), (11000.0, 0.36480), (20000.0, 0.08891)):
+        assert isa_density_kg_m3(altitude_m) == pytest.approx(rho, rel=2e-4)

@@ -667,9 +667,31 @@ def aerodynamics(g: AircraftGeometry, data: dict) -> str:
 """
 
 
-# Initial conditions shipped with the model: altitude (m) and true airspeed (m/s) for 10 m/s EAS
-# at 1 km, 10 km and 20 km.
-RESET_POINTS = ((1000.0, 10.5), (10000.0, 17.2), (20000.0, 37.1))
+def reset_points(g: AircraftGeometry) -> tuple[tuple[float, float], ...]:
+    """Where the initial conditions shipped with the model start: altitude (m) and true airspeed
+    (m/s, to 0.1) at the envelope's reference EAS, near its floor (5 % up its altitude range), at
+    its middle and at its ceiling. For the paper's aircraft: 1, 10 and 20 km at 10.5, 17.2 and
+    37.1 m/s (10 m/s EAS)."""
+    low, high = g.envelope.altitude_range_m
+    eas = g.envelope.reference_eas_mps
+    return tuple((h, round(eas * (_SEA_LEVEL_DENSITY_KG_M3 / isa_density_kg_m3(h)) ** 0.5, 1))
+                 for h in (low + 0.05 * (high - low), 0.5 * (low + high), high))
+
+
+_SEA_LEVEL_DENSITY_KG_M3 = 1.225
+
+
+def isa_density_kg_m3(altitude_m: float) -> float:
+    """Air density of the 1976 standard atmosphere at a geometric altitude (its troposphere and
+    isothermal layer, to 20 km geopotential)."""
+    t0, p0, lapse, r, g0, earth_radius_m = 288.15, 101325.0, 0.0065, 287.053, 9.80665, 6356766.0
+    geopotential_m = earth_radius_m * altitude_m / (earth_radius_m + altitude_m)
+    h = min(geopotential_m, 11000.0)
+    t = t0 - lapse * h
+    p = p0 * (t / t0) ** (g0 / (r * lapse))
+    if geopotential_m > 11000.0:
+        p *= np.exp(-g0 * (geopotential_m - 11000.0) / (r * t))
+    return float(p / (r * t))
 
 
 def aircraft_files(g: AircraftGeometry, data: dict) -> dict[str, str]:
@@ -689,7 +711,7 @@ def aircraft_files(g: AircraftGeometry, data: dict) -> dict[str, str]:
         "FlightControl.xml": flight_control(g),
         "Aerodynamics.xml": aerodynamics(g, data),
         **{f"reset{i:02d}.xml": reset_file(h, tas, data["stability"]["cruise_alpha_deg"])
-           for i, (h, tas) in enumerate(RESET_POINTS)},
+           for i, (h, tas) in enumerate(reset_points(g))},
     }
 
 
