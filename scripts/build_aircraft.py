@@ -1,8 +1,38 @@
-"""Build an aircraft's aerodynamic tables and JSBSim files from its description file (the paper's aircraft by default)."""
+"""Build an aircraft's aerodynamic tables and JSBSim files from its description file (the paper's aircraft by default).
+
+Then the build report: the stability figures and the analysis's checks, and the built model's
+survey (trims across its envelope, linear modes at cruise; ``jsbsim_env.analysis.survey``),
+printed and, with ``--out DIR``, written to ``DIR/build_report.md``.
+"""
 
 import sys
 
-from aircraft.design.build import main
+from aircraft.design.build import BuildError, build, build_parser, summary
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser(__doc__)
+    parser.add_argument("--no-survey", action="store_true", help="skip the trims and modes of the built model")
+    args = parser.parse_args(argv)
+    try:
+        built = build(args.description, args.out, args.from_data)
+    except BuildError as err:
+        print(f"build_aircraft: {err}", file=sys.stderr)
+        return 2
+    g = built.geometry
+    lines = [f"# {g.name}: build report", "", g.description, "", "```", summary(built.data), "```"]
+    if not args.no_survey:
+        from jsbsim_env.analysis.survey import envelope_survey, render_survey
+
+        envelope = g.envelope
+        rows = envelope_survey(built.root, g.name, envelope.altitude_range_m, envelope.reference_eas_mps)
+        lines += ["", "## Trims across the envelope, modes at the reference EAS", "", *render_survey(rows)]
+    text = "\n".join(lines) + "\n"
+    print(text)
+    if args.out is not None:
+        (args.out / "build_report.md").write_text(text)
+    return 0
+
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -11,7 +11,6 @@ import pytest
 
 import aircraft
 from aircraft.design import aero_data
-from aircraft.design.build import main as build_main
 from aircraft.design.description import (
     PAPER_AIRCRAFT,
     SECTIONS,
@@ -36,11 +35,16 @@ def test_the_papers_aircraft_file_describes_todays_aircraft_exactly():
     assert load_description(PAPER_AIRCRAFT) == AircraftGeometry()
 
 
-def test_the_papers_aircraft_builds_from_its_file_to_todays_model(tmp_path, capsys):
+@pytest.fixture
+def build_main(load_script):
+    return load_script("build_aircraft").main
+
+
+def test_the_papers_aircraft_builds_from_its_file_to_todays_model(tmp_path, capsys, build_main):
     # The build with the committed aerodynamic data set writes the committed files: same model,
     # same fingerprint.
     shutil.copy(aero_data.DATA_PATH, tmp_path / "aero_data.json")
-    assert build_main([str(PAPER_AIRCRAFT), "--out", str(tmp_path), "--from-data"]) == 0
+    assert build_main([str(PAPER_AIRCRAFT), "--out", str(tmp_path), "--from-data", "--no-survey"]) == 0
     built = tmp_path / "aircraft" / "solar_uav"
     assert "wrote 16 files" in capsys.readouterr().out
     assert aircraft.model_fingerprint(folder=built) == aircraft.model_fingerprint()
@@ -50,7 +54,7 @@ def test_the_papers_aircraft_builds_from_its_file_to_todays_model(tmp_path, caps
             assert path.read_text() == (aircraft.aircraft_dir() / rel).read_text(), rel
 
 
-def test_another_aircraft_needs_a_folder_of_its_own_and_from_data_needs_its_data(tmp_path, capsys):
+def test_another_aircraft_needs_a_folder_of_its_own_and_from_data_needs_its_data(tmp_path, capsys, build_main):
     other = _edited(tmp_path, r'^name = "solar_uav"$', 'name = "small_uav"')
     assert build_main([str(other)]) == 2
     assert "give --out DIR" in capsys.readouterr().err
@@ -163,14 +167,18 @@ def test_the_small_example_is_unlike_the_papers_aircraft():
     assert len(small.rotors) == 2 and small.envelope.reference_eas_mps > paper.envelope.reference_eas_mps
 
 
-def test_the_small_example_builds_loads_in_jsbsim_and_trims_across_its_envelope(tmp_path, capsys):
-    """The whole chain on another aircraft (about 20 s): aerodynamic analysis, JSBSim files, then
-    the simulation loads it and trims at the envelope's corners."""
+def test_the_small_example_builds_loads_in_jsbsim_and_trims_across_its_envelope(tmp_path, capsys, build_main):
+    """The whole chain on another aircraft (about 25 s): aerodynamic analysis, JSBSim files, the
+    build report's survey, then the simulation loads it and trims at the envelope's corners."""
     pytest.importorskip("aerosandbox")
     from jsbsim_env.sim.simulation import Simulation
 
     assert build_main([str(SMALL_AIRCRAFT), "--out", str(tmp_path)]) == 0
     assert "wrote 16 files" in capsys.readouterr().out
+    report = (tmp_path / "build_report.md").read_text()
+    assert report.startswith("# small_solar_uav: build report") and "static margin 0.10 MAC" in report
+    # The survey: a trim at the reference EAS at each altitude, and every mode named there.
+    assert report.count("| 12.0 | 5.") == 3 and "short_period" in report and "dutch_roll" in report
     folder = tmp_path / "aircraft" / "small_solar_uav"
     assert (folder / "small_solar_uav.xml").is_file() and (tmp_path / "aero_data.json").is_file()
     assert aircraft.model_fingerprint(folder=folder) != aircraft.model_fingerprint()

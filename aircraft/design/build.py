@@ -4,23 +4,39 @@
 into the package (needs the ``aero`` extra); ``python scripts/build_aircraft.py my_uav.toml --out
 DIR`` builds another into ``DIR``, a JSBSim root: ``DIR/aircraft/<name>/`` holds its files and
 ``DIR/aero_data.json`` its aerodynamic data set. ``--from-data`` rewrites the XML from the saved
-data set only.
+data set only. The script then surveys the built model (``jsbsim_env.analysis.survey``).
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
-from .. import aircraft_dir
+from .. import jsbsim_root
 from . import aero_data, analysis, xml_writer
 from .description import PAPER_AIRCRAFT, DescriptionError, load_description
+from .geometry import AircraftGeometry
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
+class BuildError(ValueError):
+    """A build that cannot run: the message is one line, naming what to change."""
+
+
+@dataclass(frozen=True)
+class Built:
+    """What a build wrote: the aircraft, its data set, its JSBSim root and folder."""
+
+    geometry: AircraftGeometry
+    data: dict
+    data_path: Path
+    root: Path  # a JSBSim root: the aircraft's files are in root/aircraft/<name>/
+    folder: Path
+
+
+def build_parser(description: str = __doc__) -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(description=description, formatter_class=argparse.RawDescriptionHelpFormatter,
                                      allow_abbrev=False)
     parser.add_argument("description", nargs="?", type=Path, default=PAPER_AIRCRAFT,
                         help="the aircraft's description file (TOML; docs/aircraft.md); the paper's aircraft when "
@@ -30,40 +46,47 @@ def main(argv: list[str] | None = None) -> int:
                              "aircraft folder when omitted, which only the paper's aircraft may use")
     parser.add_argument("--from-data", action="store_true",
                         help="skip the aerodynamic analysis and write the XML from the saved data set")
-    args = parser.parse_args(argv)
+    return parser
+
+
+def build(description: Path, out: Path | None = None, from_data: bool = False, log=print) -> Built:
+    """Build the aircraft ``description`` describes into ``out`` (the package when None; only the
+    paper's aircraft may); ``BuildError`` where it cannot."""
     try:
-        geometry = load_description(args.description)
+        geometry = load_description(description)
     except DescriptionError as err:
-        print(f"build_aircraft: {err}", file=sys.stderr)
-        return 2
-    if args.out is None:
+        raise BuildError(str(err)) from err
+    if out is None:
         if geometry.name != PAPER_AIRCRAFT.stem:
-            print(f"build_aircraft: {args.description} describes {geometry.name!r}, not the paper's aircraft: give "
-                  "--out DIR to build it there", file=sys.stderr)
-            return 2
-        data_path, folder = aero_data.DATA_PATH, aircraft_dir(geometry.name)
+            raise BuildError(f"{description} describes {geometry.name!r}, not the paper's aircraft: give --out DIR "
+                             "to build it there")
+        data_path, root = aero_data.DATA_PATH, jsbsim_root()
     else:
-        data_path, folder = args.out / "aero_data.json", args.out / "aircraft" / geometry.name
-    if args.from_data:
+        data_path, root = out / "aero_data.json", out
+    folder = root / "aircraft" / geometry.name  # the package's own aircraft_dir() for the paper's
+    if from_data:
         try:
             data = aero_data.load(data_path)
         except ValueError as err:
-            print(f"build_aircraft: {err}; build without --from-data first", file=sys.stderr)
-            return 2
+            raise BuildError(f"{err}; build without --from-data first") from err
     else:
         start = time.perf_counter()
         data = aero_data.compute_aero_data(geometry)
         data_path.parent.mkdir(parents=True, exist_ok=True)
         aero_data.save(data, data_path)
-        print(f"aerodynamic data computed in {time.perf_counter() - start:.1f} s -> {data_path}")
+        log(f"aerodynamic data computed in {time.perf_counter() - start:.1f} s -> {data_path}")
     files = xml_writer.aircraft_files(geometry, data)
     xml_writer.write(files, folder)
-    print(f"wrote {len(files)} files under {folder}")
+    log(f"wrote {len(files)} files under {folder}")
+    return Built(geometry, data, data_path, root, folder)
+
+
+def summary(data: dict) -> str:
+    """The stability figures and the analysis's checks, as the build prints them."""
     st = data["stability"]
-    print(f"CG x = {st['cg_x_m']:.3f} m, neutral point x = {st['neutral_point_x_m']:.3f} m, "
-          f"static margin {st['static_margin']:.2f} MAC, cruise alpha {st['cruise_alpha_deg']:.2f} deg")
-    print(checks_report(data))
-    return 0
+    return (f"CG x = {st['cg_x_m']:.3f} m, neutral point x = {st['neutral_point_x_m']:.3f} m, "
+            f"static margin {st['static_margin']:.2f} MAC, cruise alpha {st['cruise_alpha_deg']:.2f} deg\n"
+            + checks_report(data))
 
 
 def checks_report(data: dict) -> str:

@@ -1,0 +1,77 @@
+"""A built aircraft's envelope survey: trims across its envelope and its linear modes at cruise,
+as the build report (``scripts/build_aircraft.py``) gives them.
+
+The survey flies the model JSBSim loads (not the analysis's tables), so it checks the whole chain:
+at each of three altitudes (near the floor, 5 % up the range; the middle; the ceiling) and three
+equivalent airspeeds (0.8, 1 and 1.25 x the reference EAS) it trims the aircraft, and at the
+reference EAS it names the linear modes (``jsbsim_env.analysis.modes``). A point without a trim
+is reported with the reason, not dropped.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from jsbsim_env.analysis.modes import LinearisationError, linear_modes
+from jsbsim_env.sim.simulation import Simulation, TrimError
+
+EAS_FACTORS = (0.8, 1.0, 1.25)
+
+
+def survey_points(altitude_range_m: tuple[float, float], reference_eas_mps: float) -> list[tuple[float, float]]:
+    """(altitude m, EAS m/s) of the survey, altitudes outer."""
+    low, high = altitude_range_m
+    return [(h, f * reference_eas_mps) for h in (low + 0.05 * (high - low), 0.5 * (low + high), high)
+            for f in EAS_FACTORS]
+
+
+def envelope_survey(root: Path | str, aircraft_name: str, altitude_range_m: tuple[float, float],
+                    reference_eas_mps: float) -> list[dict]:
+    """One row per survey point: the trim (``TrimResult.as_dict``) or ``error``; ``modes`` at the
+    reference EAS."""
+    sim = Simulation(root, aircraft_name=aircraft_name)
+    rows = []
+    for altitude_m, eas_mps in survey_points(altitude_range_m, reference_eas_mps):
+        row: dict = {"altitude_m": altitude_m, "airspeed_eas_mps": eas_mps}
+        try:
+            trim = sim.trim(altitude_m, eas_mps, check_envelope=False)
+            row.update(trim.as_dict())
+            if eas_mps == reference_eas_mps:
+                row["modes"] = linear_modes(sim, trim)
+        except (TrimError, LinearisationError) as err:
+            row["error"] = str(err)
+        rows.append(row)
+    return rows
+
+
+def _mode_text(mode: dict) -> str:
+    if "damping_ratio" in mode:
+        return f"{mode['natural_frequency_radps']:.2f} rad/s, ζ {mode['damping_ratio']:.2f}"
+    if "time_constant_s" in mode:
+        return f"τ {mode['time_constant_s']:.2f} s"
+    if "time_to_double_s" in mode:
+        return f"doubles in {mode['time_to_double_s']:.1f} s"
+    return "neutral"
+
+
+def render_survey(rows: list[dict]) -> list[str]:
+    """Markdown lines: the trim table, then the modes at the reference EAS."""
+    lines = ["| altitude, m | EAS, m/s | α, deg | elevator, deg | throttle | rotor, rpm | thrust, N |",
+             "|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in rows:
+        if "error" in r:
+            lines.append(f"| {r['altitude_m']:.0f} | {r['airspeed_eas_mps']:.1f} | no trim: {r['error']} | | | | |")
+        else:
+            lines.append(f"| {r['altitude_m']:.0f} | {r['airspeed_eas_mps']:.1f} | {r['alpha_deg']:.2f} | "
+                         f"{r['elevator_deg']:.2f} | {r['throttle']:.3f} | {r['rotor_rpm']:.0f} | {r['thrust_n']:.2f} |")
+    moded = [r for r in rows if "modes" in r]
+    if moded:
+        names = list(moded[0]["modes"])
+        lines += ["", "| altitude, m | " + " | ".join(names) + " |", "|---:|" + "---|" * len(names)]
+        for r in moded:
+            lines.append(f"| {r['altitude_m']:.0f} | "
+                         + " | ".join(_mode_text(r["modes"][n]) for n in names) + " |")
+    return lines
+
+
+__all__ = ["EAS_FACTORS", "envelope_survey", "render_survey", "survey_points"]
