@@ -69,6 +69,7 @@ _NESTED = {"envelope": FlightEnvelope, "wing": WingGeometry, "aileron": ControlS
            "vertical_tail": TailSurface, "propeller": PropellerGeometry}
 _LISTS = {"rotors": Rotor, "contacts": ContactPoint}  # arrays of tables
 _TOP = ("name", "description")  # the keys before the first section
+PAPER_AIRCRAFT = Path(__file__).resolve().parent.parent / "solar_uav.toml"  # the paper's aircraft, described
 
 
 class DescriptionError(ValueError):
@@ -265,7 +266,5 @@ def load_description(path: Path | str) -> AircraftGeometry:
         message = err.args[0] if isinstance(err, KeyError) and err.args else str(err)
         raise DescriptionError(f"{path}: {message}") from err
 
-
-PAPER_AIRCRAFT = Path(__file__).resolve().parent.parent / "solar_uav.toml"
 
 __all__ = ["PAPER_AIRCRAFT", "SECTIONS", "DescriptionError", "check", "geometry_from_dict", "load_description"]
