@@ -43,6 +43,7 @@ ACCEPTED: dict[tuple[str, str], set[str]] = {
     ("bench_train", "--threads"): {"0"},
     ("trim", "--altitude-m"): {"0"},
     ("derivatives", "--altitude-m"): {"0"},
+    ("error_spectrum", "--altitude-m"): {"0"},  # sea level
     ("milspec_turbulence", "--altitudes-m"): {"0"},
     ("soak_train", "--seed"): {"0"},
     ("tune_classical", "--seed"): {"0"},  # CMA-ES's seed (given to cma as seed + 1)
