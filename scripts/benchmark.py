@@ -139,7 +139,7 @@ def main(argv=None) -> int:
         try:
             for label, path in flown.items():
                 stack = load_policy(path)[1]["stack"]
-                if stack.goal_trim_time_constant_s or stack.surface_trim_gain:
+                if stack.network_alone() != stack:
                     alone.append(label)
         except PolicyFileError as err:
             print(f"benchmark: {err}", file=sys.stderr)

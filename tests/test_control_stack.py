@@ -278,6 +278,8 @@ def test_stack_settings_round_trip_and_default_to_the_network_alone():
     with_integrals = StackSettings(8, error_integrals=True)
     assert StackSettings.from_dict(with_integrals.to_dict()) == with_integrals
     assert (StackSettings().observation_size, with_integrals.observation_size) == (OBS_SIZE, OBS_SIZE + 3)
+    # The network alone keeps its inputs and loses the classical stages.
+    assert StackSettings(4, 20.0, 2.0, True).network_alone() == StackSettings(4, error_integrals=True)
     assert StackSettings.from_dict({}) == StackSettings()
     with pytest.raises(ValueError, match=r"unknown control-stack settings \['integral_trim'\]"):
         StackSettings.from_dict({"window_steps": 8, "integral_trim": 0.5})

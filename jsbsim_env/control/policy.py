@@ -22,7 +22,6 @@ import math
 import os
 import tempfile
 import warnings
-from dataclasses import replace
 from importlib import resources
 from pathlib import Path
 
@@ -233,9 +232,7 @@ class PolicyRuntime:
                                   "(for example runs/<name>/best_policy.pt)")
         self.actor, self.meta = load_policy(path)
         settings = self.meta["stack"]
-        if network_alone:  # what the network contributes: its classical stages taken away, its inputs kept
-            settings = replace(settings, goal_trim_time_constant_s=0.0, surface_trim_gain=0.0)
-        self.stack = ControlStack(settings)
+        self.stack = ControlStack(settings.network_alone() if network_alone else settings)
         self.window = self.stack.settings.window_steps
         self.observation_size = self.stack.settings.observation_size
         self.backend = backend

@@ -20,7 +20,7 @@ keeps exactly.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
@@ -89,6 +89,11 @@ class StackSettings:
     @property
     def observation_size(self) -> int:
         return observation_size(self.error_integrals)
+
+    def network_alone(self) -> StackSettings:
+        """These settings without the classical stages (goal trim, surface trim): the network with
+        its inputs (window, error integrals) as they are."""
+        return replace(self, goal_trim_time_constant_s=0.0, surface_trim_gain=0.0)
 
     def to_dict(self) -> dict:
         return asdict(self)
