@@ -30,6 +30,13 @@ _ROLL, _PITCH, _BETA = (STATE_NAMES.index(n) for n in ("roll_rad", "pitch_rad", 
 _DEG = math.degrees(1.0)
 
 
+def check_error_integrals(value, name: str = "error_integrals") -> None:
+    """Raise ``ValueError`` naming ``name`` unless ``value`` is True or False (whether a network reads
+    the error integrals)."""
+    if not isinstance(value, bool):
+        raise ValueError(f"{name} must be true or false, got {value!r}")  # noqa: TRY004 - a bad setting, by name
+
+
 class ErrorIntegrals:
     """The roll, pitch and sideslip error integrals (deg s) of one aircraft, on plain floats."""
 
@@ -54,4 +61,4 @@ class ErrorIntegrals:
         return self.integral_deg_s
 
 
-__all__ = ["ACTIVE_BELOW_DEG", "LIMIT_DEG_S", "ErrorIntegrals"]
+__all__ = ["ACTIVE_BELOW_DEG", "LIMIT_DEG_S", "ErrorIntegrals", "check_error_integrals"]

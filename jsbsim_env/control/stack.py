@@ -24,7 +24,7 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
-from jsbsim_env.control.integrals import ErrorIntegrals
+from jsbsim_env.control.integrals import ErrorIntegrals, check_error_integrals
 from jsbsim_env.control.observation import (
     GOAL_COLUMNS,
     INTEGRAL_SCALE_DEG_S,
@@ -83,8 +83,7 @@ class StackSettings:
             raise ValueError(f"window_steps must be a whole number in [1, 64], got {self.window_steps!r}")
         check_goal_trim_time_constant(self.goal_trim_time_constant_s, "goal_trim_time_constant_s")
         check_surface_trim_gain(self.surface_trim_gain, "surface_trim_gain")
-        if not isinstance(self.error_integrals, bool):
-            raise ValueError(f"error_integrals must be true or false, got {self.error_integrals!r}")  # noqa: TRY004
+        check_error_integrals(self.error_integrals)
 
     @property
     def observation_size(self) -> int:

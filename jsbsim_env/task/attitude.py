@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from jsbsim_env.control.integrals import ErrorIntegrals
+from jsbsim_env.control.integrals import ErrorIntegrals, check_error_integrals
 from jsbsim_env.control.observation import (
     ACTION_OFFSET,
     ACTION_SCALE,
@@ -159,8 +159,7 @@ class TaskConfig:
     def __post_init__(self):
         check_surface_trim_gain(self.surface_trim_gain, "surface_trim_gain")
         check_goal_trim_time_constant(self.goal_trim_time_constant_s, "goal_trim_time_constant_s")
-        if not isinstance(self.error_integrals, bool):
-            raise ValueError(f"error_integrals must be True or False, got {self.error_integrals!r}")  # noqa: TRY004
+        check_error_integrals(self.error_integrals)
         low, high = self.goal_hold_s
         if not 0.0 < low <= high < math.inf:  # NaN fails too
             raise ValueError(f"goal_hold_s must be a finite range (low, high) with 0 < low <= high, got {(low, high)}")
