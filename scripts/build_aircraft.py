@@ -25,7 +25,7 @@ def main(argv: list[str] | None = None) -> int:
         from jsbsim_env.analysis.survey import envelope_survey, render_survey
 
         envelope = g.envelope
-        rows = envelope_survey(built.root, g.name, envelope.altitude_range_m, envelope.reference_eas_mps)
+        rows = envelope_survey(built.root, g.name, envelope.sample_altitudes_m, envelope.reference_eas_mps)
         lines += ["", "## Trims across the envelope, modes at the reference EAS", "", *render_survey(rows)]
     text = "\n".join(lines) + "\n"
     print(text)

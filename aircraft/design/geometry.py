@@ -93,6 +93,13 @@ class FlightEnvelope:
     cruise_reynolds: float = 1.0e6  # the breakpoint of the cruise lift coefficient and static margin (mid-envelope)
     lattice_reynolds: float = 1.0e6  # the flight condition of the vortex lattice (mid-envelope)
 
+    @property
+    def sample_altitudes_m(self) -> tuple[float, float, float]:
+        """Three altitudes that span the envelope: near its floor (5 % up the range), its middle and
+        its ceiling; the model's initial conditions and its build survey fly them."""
+        low, high = self.altitude_range_m
+        return low + 0.05 * (high - low), 0.5 * (low + high), high
+
 
 @dataclass(frozen=True)
 class AircraftGeometry:

@@ -669,13 +669,12 @@ def aerodynamics(g: AircraftGeometry, data: dict) -> str:
 
 def reset_points(g: AircraftGeometry) -> tuple[tuple[float, float], ...]:
     """Where the initial conditions shipped with the model start: altitude (m) and true airspeed
-    (m/s, to 0.1) at the envelope's reference EAS, near its floor (5 % up its altitude range), at
-    its middle and at its ceiling. For the paper's aircraft: 1, 10 and 20 km at 10.5, 17.2 and
-    37.1 m/s (10 m/s EAS)."""
-    low, high = g.envelope.altitude_range_m
+    (m/s, to 0.1) at the envelope's reference EAS, at its sample altitudes (near its floor, its
+    middle, its ceiling). For the paper's aircraft: 1, 10 and 20 km at 10.5, 17.2 and 37.1 m/s
+    (10 m/s EAS)."""
     eas = g.envelope.reference_eas_mps
     return tuple((h, round(eas * (_SEA_LEVEL_DENSITY_KG_M3 / isa_density_kg_m3(h)) ** 0.5, 1))
-                 for h in (low + 0.05 * (high - low), 0.5 * (low + high), high))
+                 for h in g.envelope.sample_altitudes_m)
 
 
 _SEA_LEVEL_DENSITY_KG_M3 = 1.225

@@ -2,8 +2,8 @@
 as the build report (``scripts/build_aircraft.py``) gives them.
 
 The survey flies the model JSBSim loads (not the analysis's tables), so it checks the whole chain:
-at each of three altitudes (near the floor, 5 % up the range; the middle; the ceiling) and three
-equivalent airspeeds (0.8, 1 and 1.25 x the reference EAS) it trims the aircraft, and at the
+at each of the envelope's three sample altitudes (near the floor, 5 % up the range; the middle; the
+ceiling) and three equivalent airspeeds (0.8, 1 and 1.25 x the reference EAS) it trims the aircraft, and at the
 reference EAS it names the linear modes (``jsbsim_env.analysis.modes``). A point without a trim
 is reported with the reason, not dropped.
 """
@@ -18,20 +18,17 @@ from jsbsim_env.sim.simulation import Simulation, TrimError
 EAS_FACTORS = (0.8, 1.0, 1.25)
 
 
-def survey_points(altitude_range_m: tuple[float, float], reference_eas_mps: float) -> list[tuple[float, float]]:
+def survey_points(altitudes_m, reference_eas_mps: float) -> list[tuple[float, float]]:
     """(altitude m, EAS m/s) of the survey, altitudes outer."""
-    low, high = altitude_range_m
-    return [(h, f * reference_eas_mps) for h in (low + 0.05 * (high - low), 0.5 * (low + high), high)
-            for f in EAS_FACTORS]
+    return [(h, f * reference_eas_mps) for h in altitudes_m for f in EAS_FACTORS]
 
 
-def envelope_survey(root: Path | str, aircraft_name: str, altitude_range_m: tuple[float, float],
-                    reference_eas_mps: float) -> list[dict]:
-    """One row per survey point: the trim (``TrimResult.as_dict``) or ``error``; ``modes`` at the
-    reference EAS."""
+def envelope_survey(root: Path | str, aircraft_name: str, altitudes_m, reference_eas_mps: float) -> list[dict]:
+    """One row per survey point at ``altitudes_m`` (the description's ``envelope.sample_altitudes_m``):
+    the trim (``TrimResult.as_dict``) or ``error``; ``modes`` at the reference EAS."""
     sim = Simulation(root, aircraft_name=aircraft_name)
     rows = []
-    for altitude_m, eas_mps in survey_points(altitude_range_m, reference_eas_mps):
+    for altitude_m, eas_mps in survey_points(altitudes_m, reference_eas_mps):
         row: dict = {"altitude_m": altitude_m, "airspeed_eas_mps": eas_mps}
         try:
             trim = sim.trim(altitude_m, eas_mps, check_envelope=False)
