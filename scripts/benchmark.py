@@ -180,9 +180,7 @@ def main(argv=None) -> int:
               "split": args.split, "seeds": [SPLITS[args.split].start, SPLITS[args.split].start + args.episodes - 1],
               "method": args.method,
               "quick": args.quick, "plan": plan_dict(args.quick), "summary": summary,
-              "selection": [{"controller": c, **s} for c, s in
-                            selection.rank(summary, [c for c in controllers if c not in selection.CLASSICAL],
-                                           [c for c in selection.CLASSICAL if c in controllers])]}
+              "selection": [{"controller": c, **s} for c, s in selection.rank(summary, *selection.sides(controllers))]}
     (args.out / "benchmark.json").write_text(json.dumps(json_ready({**record, "rows": rows}), indent=1))
     (args.out / "benchmark.md").write_text(render_markdown(summary, controllers, plan, args.episodes, command,
                                                            args.method, args.split))

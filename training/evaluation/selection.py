@@ -96,17 +96,30 @@ def score(rows: list[dict]) -> dict:
             "all_met": bool(rows) and all(r["met"] for r in rows)}
 
 
+def sides(controllers) -> tuple[list[str], list[str]]:
+    """``controllers`` split into the learned ones (candidates) and the classical ones."""
+    return [c for c in controllers if c not in CLASSICAL], [c for c in CLASSICAL if c in controllers]
+
+
+def _judged(summary: dict, candidates, classical) -> list[tuple[str, dict, list[dict]]]:
+    """Each candidate with its ``score`` and its cells (``judge``), best first: most cells met,
+    then the lowest ratio."""
+    judged = []
+    for c in candidates:
+        rows = judge(summary, c, classical)
+        judged.append((c, score(rows), rows))
+    return sorted(judged, key=lambda j: (-j[1]["met"], j[1]["ratio"] if math.isfinite(j[1]["ratio"]) else math.inf))
+
+
 def rank(summary: dict, candidates, classical=CLASSICAL) -> list[tuple[str, dict]]:
     """The candidates with their ``score``, best first: most cells met, then the lowest ratio."""
-    scored = [(c, score(judge(summary, c, classical))) for c in candidates]
-    return sorted(scored, key=lambda cs: (-cs[1]["met"], cs[1]["ratio"] if math.isfinite(cs[1]["ratio"]) else math.inf))
+    return [(c, s) for c, s, _ in _judged(summary, candidates, classical)]
 
 
 def render(summary: dict, controllers: list[str], fmt) -> list[str]:
     """Markdown lines: the ranking of the learned controllers in ``controllers`` and, for each, its
     cells against the best classical controller; nothing when either side is missing."""
-    candidates = [c for c in controllers if c not in CLASSICAL]
-    classical = [c for c in CLASSICAL if c in controllers]
+    candidates, classical = sides(controllers)
     if not candidates or not classical:
         return []
     lines = ["## Against the best classical controller", "",
@@ -116,13 +129,13 @@ def render(summary: dict, controllers: list[str], fmt) -> list[str]:
               f"{CALM_BOUND_DEG:g} deg. Ratio: geometric mean of the candidate's mean over the reference's, "
               "turbulence and Table 9."), "",
              "| rank | controller | cells met | ratio | all met |", "|---|---|---|---|---|"]
-    ranked = rank(summary, candidates, classical)
-    for k, (c, s) in enumerate(ranked, 1):
+    judged = _judged(summary, candidates, classical)
+    for k, (c, s, _) in enumerate(judged, 1):
         lines.append(f"| {k} | {c} | {s['met']} of {s['cells']} | {fmt(s['ratio'])} | {'yes' if s['all_met'] else 'no'} |")
-    for c, _ in ranked:
+    for c, _, rows in judged:
         lines += ["", f"### {c}", "", "| family | condition | metric | reference | reference mean | mean | verdict | met |",
                   "|---|---|---|---|---|---|---|---|"]
-        for r in judge(summary, c, classical):
+        for r in rows:
             early = f" ({r['candidate_ended_early']} ended early)" if r["candidate_ended_early"] else ""
             lines.append(f"| {r['family']} | {r['condition']} | {r['metric']} | {r['reference'] or 'bound'} | "
                          f"{fmt(r['reference_mean'])} | {fmt(r['candidate_mean'])}{early} | {r['verdict'] or ''} | "
@@ -131,4 +144,4 @@ def render(summary: dict, controllers: list[str], fmt) -> list[str]:
     return lines
 
 
-__all__ = ["CALM_BOUND_DEG", "CLASSICAL", "CRITERIA", "best_classical", "judge", "rank", "render", "score"]
+__all__ = ["CALM_BOUND_DEG", "CLASSICAL", "CRITERIA", "best_classical", "judge", "rank", "render", "score", "sides"]
