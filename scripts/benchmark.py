@@ -51,6 +51,7 @@ from training.runtime import (
     ScriptParser,
     available_cores,
     claim_output_folder,
+    name_list,
     number_type,
     positive_int,
     remove_earlier_results,
@@ -91,16 +92,6 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def _names(text: str, allowed, what: str) -> list[str]:
-    names = [n.strip() for n in text.split(",") if n.strip()]
-    bad = [n for n in names if n not in allowed]
-    if bad or not names:
-        raise ValueError(f"--{what} takes any of {', '.join(allowed)}, got {text!r}")
-    if len(set(names)) < len(names):
-        raise ValueError(f"--{what}: each once, got {text!r}")
-    return names
-
-
 def compare_labels(paths, controllers: list[str]) -> dict[str, str]:
     """``--compare``'s files by label: a run's ``best_policy.pt`` by its run folder's name, another
     file by its name without suffix; a label that repeats, or names a controller, is refused."""
@@ -117,8 +108,8 @@ def compare_labels(paths, controllers: list[str]) -> dict[str, str]:
 def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     try:
-        controllers = _names(args.controllers, CONTROLLER_NAMES, "controllers")
-        families = _names(args.families, tuple(FAMILIES), "families")
+        controllers = name_list(args.controllers, CONTROLLER_NAMES, "--controllers")
+        families = name_list(args.families, tuple(FAMILIES), "--families")
         claim_output_folder(args.out, RESULTS, args.overwrite)
     except OutputFolderError as err:
         print(f"benchmark: --out: {err}", file=sys.stderr)

@@ -14,9 +14,8 @@ from __future__ import annotations
 
 import sys
 
-from training.runtime import ScriptParser, number_type, positive_int
-
-CONTROLLER_NAMES = ("policy", "pid", "lqi", "pid_tuned", "lqi_tuned")  # jsbsim_env.control.factory's
+from jsbsim_env.control.factory import CONTROLLER_NAMES
+from training.runtime import ScriptParser, name_list, number_type, positive_int
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -27,11 +26,10 @@ def main(argv: list[str] | None = None) -> int:
                         help="the turbulence flight's altitude (the benchmark's: 1000, 10000, 20000)")
     parser.add_argument("--episodes", type=positive_int, default=3, help="validation realisations, from the first")
     args = parser.parse_args(argv)
-    names = [n.strip() for n in args.controllers.split(",") if n.strip()]
-    bad = [n for n in names if n not in CONTROLLER_NAMES]
-    if bad or not names:
-        print(f"error_spectrum: --controllers takes any of {', '.join(CONTROLLER_NAMES)}, got {args.controllers!r}",
-              file=sys.stderr)
+    try:
+        names = name_list(args.controllers, CONTROLLER_NAMES, "--controllers")
+    except ValueError as err:
+        print(f"error_spectrum: {err}", file=sys.stderr)
         return 2
 
     import numpy as np

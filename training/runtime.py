@@ -214,6 +214,18 @@ def number_type(kind: type = float, low: float | None = None, high: float | None
     return convert
 
 
+def name_list(text: str, allowed, option: str) -> list[str]:
+    """A comma-separated list of names, each one of ``allowed`` and each once (a command's
+    ``--controllers A,B``); ``ValueError`` naming ``option`` otherwise."""
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    bad = [n for n in names if n not in allowed]
+    if bad or not names:
+        raise ValueError(f"{option} takes any of {', '.join(allowed)}, got {text!r}")
+    if len(set(names)) < len(names):
+        raise ValueError(f"{option}: each once, got {text!r}")
+    return names
+
+
 finite_float = number_type(float, name="finite_float")
 positive_float = number_type(float, 0.0, low_open=True, name="positive_float")
 non_negative_float = number_type(float, 0.0, name="non_negative_float")
