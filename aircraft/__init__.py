@@ -1,20 +1,32 @@
-"""The solar UAV as JSBSim data.
+"""The aircraft as JSBSim data: the paper's solar UAV, packaged, and any aircraft built from a description.
 
 The folder that holds this package is a JSBSim root: JSBSim finds the aircraft at
 ``<root>/aircraft/solar_uav/solar_uav.xml``, its systems in ``aircraft/solar_uav/Systems`` and its
 initial conditions as ``aircraft/solar_uav/reset*.xml``. In a checkout the root is the repository;
 in an installed package it is the ``site-packages`` folder this package sits in.
+
+An aircraft built by ``scripts/build_aircraft.py DESCRIPTION --out DIR`` has the same layout under
+``DIR``. Every aircraft folder holds ``envelope.json``, where the aircraft flies (written by the
+build from its description), which is all the run-time code needs beside the JSBSim files:
+``load_aircraft`` reads a name or a path into an ``Aircraft``.
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
+import json
+import math
 import re
 import xml.etree.ElementTree as ET
+from dataclasses import dataclass
 from pathlib import Path
 
 AIRCRAFT_NAME = "solar_uav"
-"""Name of the aircraft as JSBSim knows it (``<use aircraft="solar_uav" .../>``)."""
+"""Name of the paper's aircraft as JSBSim knows it (``<use aircraft="solar_uav" .../>``), the default."""
+ENVELOPE_FILE = "envelope.json"
+"""In every aircraft folder: where the aircraft flies (``Aircraft``), written by its build."""
+SURFACES = ("aileron", "elevator", "rudder")
 
 
 def jsbsim_root() -> Path:
@@ -30,6 +42,129 @@ def aircraft_dir(name: str = AIRCRAFT_NAME) -> Path:
 def reset_files(name: str = AIRCRAFT_NAME) -> list[str]:
     """Names (without ``.xml``) of the aircraft's initial-condition files, sorted."""
     return sorted(p.stem for p in aircraft_dir(name).glob("reset*.xml"))
+
+
+class AircraftError(ValueError):
+    """A name or path that is no built aircraft; the message says what it is and what to give."""
+
+
+@dataclass(frozen=True)
+class Aircraft:
+    """A built aircraft as the run-time code flies it: its JSBSim root and name, and where it flies
+    (its folder's ``envelope.json``).
+
+    ``altitude_range_m`` and ``eas_range_mps`` are its flight envelope: where it is trimmed, and
+    the EAS goals a task draws; ``start_altitude_range_m`` and ``start_eas_range_mps`` are where a
+    training episode starts; ``surface_limits_deg`` the aileron's, elevator's and rudder's travel.
+    """
+
+    root: Path
+    name: str
+    altitude_range_m: tuple[float, float]
+    eas_range_mps: tuple[float, float]
+    reference_eas_mps: float
+    start_altitude_range_m: tuple[float, float]
+    start_eas_range_mps: tuple[float, float]
+    surface_limits_deg: tuple[float, float, float]  # aileron, elevator, rudder
+
+    @property
+    def folder(self) -> Path:
+        return self.root / "aircraft" / self.name
+
+    @property
+    def packaged(self) -> bool:
+        """Whether this is an aircraft that ships with the package (the paper's)."""
+        return self.root == jsbsim_root()
+
+    @functools.cached_property
+    def fingerprint(self) -> str:
+        """``model_fingerprint`` of its folder: what tells one aircraft from another."""
+        return model_fingerprint(folder=self.folder)
+
+    @property
+    def sample_altitudes_m(self) -> tuple[float, float, float]:
+        """Three altitudes that span the envelope: 5 % up from its floor, its middle, its ceiling
+        (the paper's aircraft: 1, 10 and 20 km)."""
+        low, high = self.altitude_range_m
+        return low + 0.05 * (high - low), 0.5 * (low + high), high
+
+    def describe(self) -> str:
+        """One line: the name, and the folder for an aircraft that does not ship with the package."""
+        return self.name if self.packaged else f"{self.name} ({self.folder})"
+
+
+def _aircraft_folder(spec: str) -> Path:
+    """The aircraft folder that ``spec`` (a packaged name, an aircraft folder, or a JSBSim root
+    holding one aircraft) names; ``AircraftError`` otherwise."""
+    path = Path(spec).expanduser()
+    packaged = sorted(p.parent.name for p in Path(__file__).resolve().parent.glob(f"*/{ENVELOPE_FILE}"))
+    if not path.exists():
+        if spec in packaged:
+            return aircraft_dir(spec)
+        raise AircraftError(f"aircraft {spec!r} is neither a packaged aircraft ({', '.join(packaged)}) nor a path "
+                            "that exists: give a folder built by scripts/build_aircraft.py DESCRIPTION --out DIR")
+    if path.is_file():
+        if path.suffix == ".toml":
+            raise AircraftError(f"aircraft {spec!r} is a description, not a built aircraft: build it with "
+                                f"`python scripts/build_aircraft.py {spec} --out DIR`, then give DIR")
+        raise AircraftError(f"aircraft {spec!r} is a file: give the folder scripts/build_aircraft.py --out built")
+    path = path.resolve()
+    if (path / ENVELOPE_FILE).is_file():
+        return path
+    found = sorted(p.parent for p in path.glob(f"aircraft/*/{ENVELOPE_FILE}"))
+    if len(found) == 1:
+        return found[0]
+    if found:
+        raise AircraftError(f"{spec} holds {len(found)} aircraft ({', '.join(p.name for p in found)}): give one "
+                            f"of their folders, such as {found[0]}")
+    raise AircraftError(f"{spec} holds no built aircraft (no {ENVELOPE_FILE} in it or in aircraft/*/ under it): "
+                        "give a folder built by scripts/build_aircraft.py DESCRIPTION --out DIR")
+
+
+def _range(record: dict, key: str, where: Path) -> tuple[float, float]:
+    value = record.get(key)
+    if (not isinstance(value, list) or len(value) != 2 or not all(isinstance(v, (int, float)) for v in value)
+            or not all(math.isfinite(v) for v in value) or not value[0] <= value[1]):
+        raise AircraftError(f"{where}: {key} must be [low, high] in order, got {value!r}; build the aircraft again")
+    return float(value[0]), float(value[1])
+
+
+@functools.cache
+def _load(folder: Path) -> Aircraft:
+    where = folder / ENVELOPE_FILE
+    if folder.parent.name != "aircraft":
+        raise AircraftError(f"{folder} is not in a JSBSim root's aircraft/ folder, where JSBSim looks for it")
+    if not (folder / f"{folder.name}.xml").is_file():
+        raise AircraftError(f"{folder} has no {folder.name}.xml, the aircraft's JSBSim file; build it again")
+    try:
+        record = json.loads(where.read_text())
+        limits = record["surface_limits_deg"]
+        surfaces = tuple(float(limits[s]) for s in SURFACES)
+        reference = float(record["reference_eas_mps"])
+    except (OSError, ValueError, KeyError, TypeError) as err:
+        raise AircraftError(f"{where} cannot be read ({type(err).__name__}: {err}); build the aircraft again") from err
+    if not all(0.0 < x < math.inf for x in surfaces):
+        raise AircraftError(f"{where}: surface_limits_deg must be above 0, got {surfaces}; build the aircraft again")
+    return Aircraft(root=folder.parent.parent, name=folder.name,
+                    altitude_range_m=_range(record, "altitude_range_m", where),
+                    eas_range_mps=_range(record, "eas_range_mps", where), reference_eas_mps=reference,
+                    start_altitude_range_m=_range(record, "start_altitude_range_m", where),
+                    start_eas_range_mps=_range(record, "start_eas_range_mps", where), surface_limits_deg=surfaces)
+
+
+def load_aircraft(spec: str | Path | Aircraft | None = None) -> Aircraft:
+    """The aircraft ``spec`` names: ``None`` or ``"solar_uav"`` for the paper's; the name of another
+    packaged aircraft; the folder of a built aircraft (``DIR/aircraft/<name>``), or the JSBSim root
+    ``DIR`` that ``scripts/build_aircraft.py --out DIR`` built one aircraft into. An
+    ``AircraftError`` says what ``spec`` is instead (a description file not yet built, a folder
+    with no aircraft or several)."""
+    if isinstance(spec, Aircraft):
+        return spec
+    if spec is None:
+        spec = AIRCRAFT_NAME
+    if not isinstance(spec, (str, Path)) or not str(spec):
+        raise AircraftError(f"aircraft must be a name or a path, got {spec!r}")
+    return _load(_aircraft_folder(str(spec)))
 
 
 def model_fingerprint(name: str = AIRCRAFT_NAME, folder: Path | None = None) -> str:

@@ -29,7 +29,9 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from aircraft import AIRCRAFT_NAME
 from jsbsim_env.control.base import AttitudeController
+from jsbsim_env.control.gain_files import gain_file
 from jsbsim_env.control.l1 import G_MPS2, L1Guidance, L1Params
 from jsbsim_env.control.pid import GainSchedule
 from jsbsim_env.control.tecs import TECS, TECSParams
@@ -51,8 +53,10 @@ def standard_density_kg_m3(altitude_m: float) -> float:
 
 @dataclass(frozen=True)
 class RouteConfig:
-    """One route flight. Distances in m, times in s, speeds in m/s, angles in degrees."""
+    """One route flight. Distances in m, times in s, speeds in m/s, angles in degrees; ``aircraft``
+    as ``CoreConfig.aircraft``."""
 
+    aircraft: str = AIRCRAFT_NAME
     altitude_m: float = 10_000.0
     eas_mps: float = 10.0
     leg_north_m: float = 6_000.0
@@ -112,7 +116,7 @@ class RouteConfig:
         """The flight core for this mission: fixed interval and delay, no start perturbation."""
         interval = 1.0 / self.control_rate_hz
         return CoreConfig(
-            control_interval_s=(interval, interval), delay_s=(self.delay_s, self.delay_s),
+            aircraft=self.aircraft, control_interval_s=(interval, interval), delay_s=(self.delay_s, self.delay_s),
             sensor_noise=self.sensor_noise, noise_reversion_per_s=self.noise_reversion_per_s, parameters=self.parameters, turbulence=bool(self.turbulence_legs),
             turbulence_intensity=self.turbulence_intensity, turbulence_sigma_mps=self.turbulence_sigma_mps,
             turbulence_clip=self.turbulence_clip, backlash_deg=self.backlash_deg,
@@ -178,7 +182,7 @@ class RouteFlight:
         heading_deg = math.degrees(math.atan2(first_leg[1], first_leg[0]))
         self.measurement = self.core.reset(cfg.seed, altitude_m=cfg.altitude_m, airspeed_eas_mps=cfg.eas_mps,
                                            heading_deg=heading_deg)
-        self.schedule = GainSchedule()
+        self.schedule = GainSchedule(gain_file("pid", self.core.aircraft))  # TECS's trim data
         self.tecs, self.l1 = TECS(cfg.tecs), L1Guidance(cfg.l1)
         self.tecs.reset()
         self.leg = 0

@@ -1,7 +1,9 @@
 """Build an aircraft's aerodynamic tables and JSBSim files from its description file (the paper's aircraft by default).
 
-Then the build report: the stability figures and the analysis's checks, and the built model's
-survey (trims across its envelope, linear modes at cruise; ``jsbsim_env.analysis.survey``),
+With ``--out DIR`` it then designs the aircraft's classical controllers, the PID and the LQI, by
+the procedures that designed the paper's aircraft's (``jsbsim_env.control.classical_design``), into
+its folder. Then the build report: the stability figures and the analysis's checks, and the built
+model's survey (trims across its envelope, linear modes at cruise; ``jsbsim_env.analysis.survey``),
 printed and, with ``--out DIR``, written to ``DIR/build_report.md``.
 """
 
@@ -13,6 +15,9 @@ from aircraft.design.build import BuildError, build, build_parser, summary
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser(__doc__)
     parser.add_argument("--no-survey", action="store_true", help="skip the trims and modes of the built model")
+    parser.add_argument("--no-controllers", action="store_true",
+                        help="skip the design of the PID and the LQI (with --out; the paper's aircraft's ship with the "
+                             "package)")
     args = parser.parse_args(argv)
     try:
         built = build(args.description, args.out, args.from_data)
@@ -21,11 +26,16 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     g = built.geometry
     lines = [f"# {g.name}: build report", "", g.description, "", "```", summary(built.data), "```"]
+    if args.out is not None and not args.no_controllers:
+        from jsbsim_env.control.classical_design import design_classical
+
+        designed = []
+        design_classical(built.folder, log=lambda line: (print(line, flush=True), designed.append(line)))
+        lines += ["", "## Classical controllers", "", *(f"- {line}" for line in designed)]
     if not args.no_survey:
         from jsbsim_env.analysis.survey import envelope_survey, render_survey
 
-        envelope = g.envelope
-        rows = envelope_survey(built.root, g.name, envelope.sample_altitudes_m, envelope.reference_eas_mps)
+        rows = envelope_survey(built.folder)
         lines += ["", "## Trims across the envelope, modes at the reference EAS", "", *render_survey(rows)]
     text = "\n".join(lines) + "\n"
     print(text)

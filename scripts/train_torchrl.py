@@ -91,7 +91,7 @@ def main(argv: list[str] | None = None) -> int:
     for note in trainer.notes:
         print(f"train_torchrl: {note}", file=sys.stderr)
     try:
-        append_session(run_dir, command, trainer.counters.frames)
+        append_session(run_dir, command, trainer.counters.frames, trainer.aircraft.fingerprint)
     except OSError as err:
         print(f"train_torchrl: cannot write to the run folder {run_dir} ({err.strerror or err})", file=sys.stderr)
         return 1

@@ -28,7 +28,8 @@ def test_committed_xml_is_what_the_generator_writes():
                for p in aircraft.aircraft_dir().rglob("*.xml")}
     # The trimmed cruise initial conditions come from the trim (tests/test_runscripts.py checks them).
     trimmed = {f"{run.initial_conditions}.xml" for run in RUNS}
-    assert on_disk == set(files) | trimmed
+    assert on_disk == {rel for rel in files if rel.endswith(".xml")} | trimmed
+    assert aircraft.ENVELOPE_FILE in files  # written beside them, compared below
     for rel, text in files.items():
         assert (aircraft.aircraft_dir() / rel).read_text() == text, f"{rel} differs from the generator's output"
 
@@ -227,7 +228,7 @@ def test_malformed_aircraft_file_gives_clear_error(tmp_path):
     aero = root / "aircraft" / "solar_uav" / "Aerodynamics.xml"
     aero.write_text(aero.read_text()[: len(aero.read_text()) // 2])  # truncated mid-element
     with pytest.raises(ModelError, match="solar_uav"):
-        Simulation(root=root)
+        Simulation(root)
 
 
 def _assert_nested_close(a, b, path="data"):

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from jsbsim_env.control import factory
+from jsbsim_env.control import factory, gain_files
 from jsbsim_env.control.lqi import GAIN_COLUMNS, LQIAttitudeController
 from jsbsim_env.control.lqi import GAINS_PATH as LQI_GAINS_PATH
 from jsbsim_env.control.pid import GAINS_PATH as PID_GAINS_PATH
@@ -99,7 +99,7 @@ def test_the_tuning_refuses_the_frozen_test_seeds(monkeypatch, tmp_path, capsys)
 
 
 def test_tuned_controllers_need_their_gain_file(monkeypatch, tmp_path):
-    monkeypatch.setitem(factory.TUNED_GAIN_FILES, "pid_tuned", tmp_path / "none.json")
+    monkeypatch.setitem(gain_files.FILES, "pid_tuned", "none.json")
     with pytest.raises(factory.TunedGainsMissing, match=r"scripts/tune_classical.py --controller pid"):
         factory.make_controller("pid_tuned")
     with pytest.raises(SystemExit) as exc:  # the shipped tables are never the output

@@ -337,9 +337,10 @@ def test_flight_core_trims_the_aircraft_of_its_own_root(tmp_path):
     tree = ET.parse(mass_file)
     tree.find("emptywt").text = f" {1.2 * float(tree.find('emptywt').text)} "
     tree.write(mass_file)
-    packaged, heavier = FlightCore(CoreConfig.ideal()), FlightCore(CoreConfig.ideal(), root=root)
+    packaged, heavier = FlightCore(CoreConfig.ideal()), FlightCore(CoreConfig.ideal(aircraft=root))
     assert heavier.trim_table is not packaged.trim_table
-    assert heavier.trim_table is FlightCore(CoreConfig.ideal(), root=str(root)).trim_table  # one per aircraft
+    # One table per aircraft, whether it is named by its JSBSim root or its folder.
+    assert heavier.trim_table is FlightCore(CoreConfig.ideal(aircraft=str(root / "aircraft" / "solar_uav"))).trim_table
     for core in (packaged, heavier):
         core.reset(0, altitude_m=1000.0, airspeed_eas_mps=10.0)  # a grid point: the trim itself
         f = core.sim.fdm

@@ -51,7 +51,7 @@ def _declared_property(name):
 
 def _load_error(root: Path) -> str:
     with pytest.raises(ModelError) as err:
-        Simulation(root=root)
+        Simulation(root)
     message = str(err.value)
     del err
     gc.collect()  # JSBSim destroys its instance here: a half-declared model must not abort the process

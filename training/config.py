@@ -25,6 +25,7 @@ import re
 from dataclasses import dataclass, field, fields
 from typing import Any, get_args, get_origin, get_type_hints
 
+from aircraft import AIRCRAFT_NAME, AircraftError, load_aircraft
 from jsbsim_env.task.versions import LATEST, task_version
 
 SEED_MAX = 2**64 - 1  # the largest seed torch takes
@@ -155,6 +156,25 @@ class TaskName(Allowed):
         return None
 
 
+@dataclass(frozen=True)
+class AircraftName(Allowed):
+    """An aircraft ``aircraft.load_aircraft`` finds (its error says what the value is instead)."""
+
+    text: str = "a packaged aircraft's name or a built aircraft's folder (scripts/build_aircraft.py --out)"
+
+    def admits(self, value) -> bool:
+        return isinstance(value, str) and value != "" and "\0" not in value
+
+    def problem(self, name: str, value) -> str | None:
+        if not self.admits(value):
+            return super().problem(name, value)
+        try:
+            load_aircraft(value)
+        except AircraftError as err:
+            return f"{name}: {err}"
+        return None
+
+
 _DEVICE = re.compile(r"cpu|cuda(:[0-9]+)?")
 
 
@@ -170,9 +190,10 @@ class Device(Allowed):
         return isinstance(value, str) and _DEVICE.fullmatch(value) is not None
 
 
-def _f(default, help: str, allowed: Allowed):
-    """A dataclass field with a help line and its allowed values."""
-    return field(default=default, metadata={"help": help, "allowed": allowed})
+def _f(default, help: str, allowed: Allowed, short: str | None = None):
+    """A dataclass field with a help line and its allowed values; ``short``: a second option name
+    (``--aircraft`` for ``--env.aircraft``, as every command takes it)."""
+    return field(default=default, metadata={"help": help, "allowed": allowed, "short": short})
 
 
 POSITIVE_INT = Number(1, integer=True)
@@ -186,6 +207,8 @@ FRACTION = Number(0, 1)
 class EnvSettings:
     task: str = _f(LATEST, "task version trained on and flown with (jsbsim_env.task.versions): "
                            "SolarUAVAttitude-v0 is the paper's, SolarUAVAttitude-v1 the shipped controller's", TaskName())
+    aircraft: str = _f(AIRCRAFT_NAME, "the aircraft trained on: a packaged aircraft's name (the paper's solar_uav) or "
+                                      "a folder built by scripts/build_aircraft.py --out", AircraftName(), short="aircraft")
     num_envs: int = _f(8, "aircraft simulated side by side in one process", POSITIVE_INT)
     disturbances: bool = _f(True, "the task's delay, noise, random interval, randomisation and turbulence (false: "
                                   "ideal sensors and actuators, for checks)", Flag())
@@ -432,7 +455,8 @@ def _add_option(parser, name: str, typ, f: dataclasses.Field) -> None:
                             metavar=item.__name__.upper(), help=_help(f, default))
         return
     kind = _parse_bool if typ is bool else typ
-    parser.add_argument(f"--{name}", dest=f"cfg:{name}", type=kind, default=None, metavar=typ.__name__.upper(),
+    names = [f"--{name}"] + ([f"--{f.metadata['short']}"] if f.metadata.get("short") else [])
+    parser.add_argument(*names, dest=f"cfg:{name}", type=kind, default=None, metavar=typ.__name__.upper(),
                         help=_help(f, default))
 
 

@@ -31,7 +31,7 @@ def train_seed(config: dict, run_dir: str, command: list[str]) -> dict:
     trainer = Trainer(TrainConfig.from_dict(config), path, resume=resume)
     for note in trainer.notes:
         print(f"train_torchrl: {note}", file=sys.stderr)
-    append_session(path, command, trainer.counters.frames)
+    append_session(path, command, trainer.counters.frames, trainer.aircraft.fingerprint)
     return {"run_dir": run_dir, "resumed": resume, **trainer.train()}
 
 

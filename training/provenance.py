@@ -35,11 +35,12 @@ def git_commit(repo: Path = REPO_ROOT) -> tuple[str | None, bool]:
         return None, False
 
 
-def append_session(run_dir: Path | str, argv: list[str], frames: int) -> dict:
-    """Record one training session of the run in ``run_dir``; returns the record."""
+def append_session(run_dir: Path | str, argv: list[str], frames: int, aircraft_model: str | None = None) -> dict:
+    """Record one training session of the run in ``run_dir``, on the aircraft whose fingerprint is
+    ``aircraft_model`` (the paper's when None); returns the record."""
     commit, dirty = git_commit()
     record = {"started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "command": shlex.join(argv),
-              "commit": commit, "dirty": dirty, "aircraft_model": aircraft.model_fingerprint(),
+              "commit": commit, "dirty": dirty, "aircraft_model": aircraft_model or aircraft.model_fingerprint(),
               "frames_at_start": int(frames), "cpu_cores": available_cores()}
     with (Path(run_dir) / SESSIONS_FILE).open("a") as fh:
         fh.write(json.dumps(record) + "\n")

@@ -40,7 +40,8 @@ _GOAL_KEYS = ("observation", ("next", "observation"))
 
 def relabel_goals(batch: TensorDictBase, fraction: float, spread: float = RELABEL_SPREAD,
                   generator: torch.Generator | None = None, sideslip_weight: float = 1.0,
-                  penalty_tail: float = 0.0, roll_weight: float = 1.0, pitch_weight: float = 1.0) -> TensorDictBase:
+                  penalty_tail: float = 0.0, roll_weight: float = 1.0, pitch_weight: float = 1.0,
+                  goal_range: tuple | None = None) -> TensorDictBase:
     """A copy of ``batch`` with goals and rewards of a random ``fraction`` of its samples relabelled.
 
     Args:
@@ -52,6 +53,8 @@ def relabel_goals(batch: TensorDictBase, fraction: float, spread: float = RELABE
             each channel's saturation error, clipped to the goal ranges.
         generator: random stream for the choice and the offsets.
         sideslip_weight, penalty_tail, roll_weight, pitch_weight: the training reward's (``task.TaskConfig``).
+        goal_range: the lowest and highest goals (roll, pitch rad; EAS m/s) of the task's aircraft
+            (``task.attitude.goal_range``); the paper's aircraft's (``GOAL_LOW``, ``GOAL_HIGH``) when None.
     """
     if not 0.0 <= fraction <= 1.0:
         raise ValueError(f"relabel fraction must lie in [0, 1], got {fraction}")
@@ -68,8 +71,9 @@ def relabel_goals(batch: TensorDictBase, fraction: float, spread: float = RELABE
         return batch
     achieved = batch["next", "achieved"][index].float()
     offset = (torch.rand(index.numel(), 3, generator=generator) * 2.0 - 1.0) * (spread * _SATURATION)
-    goal = torch.minimum(torch.maximum(achieved[:, :3] + offset.to(device), _GOAL_LOW.to(device)),
-                         _GOAL_HIGH.to(device))
+    low, high = (_GOAL_LOW, _GOAL_HIGH) if goal_range is None else (
+        torch.as_tensor(bound, dtype=torch.float32) for bound in goal_range)
+    goal = torch.minimum(torch.maximum(achieved[:, :3] + offset.to(device), low.to(device)), high.to(device))
     scaled = ((goal - _GOAL_OFFSET.to(device)) / _GOAL_SCALE.to(device)).unsqueeze(-2)
     out = batch.clone()
     for key in _GOAL_KEYS:

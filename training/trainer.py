@@ -32,9 +32,10 @@ from torchrl.collectors import Collector
 from torchrl.data import LazyTensorStorage, TensorDictReplayBuffer
 from torchrl.envs.utils import ExplorationType, set_exploration_type, step_mdp
 
+from aircraft import AIRCRAFT_NAME, load_aircraft
 from jsbsim_env.control.checked_io import DamagedFileError, checked_load
 from jsbsim_env.sim.core import CoreConfig
-from jsbsim_env.task.attitude import PRIVILEGED_SIZE, TaskConfig
+from jsbsim_env.task.attitude import PRIVILEGED_SIZE, TaskConfig, goal_range
 from jsbsim_env.task.torchrl_env import make_env
 from jsbsim_env.task.versions import task_version
 from training.checkpoint import CheckpointError, atomic_save, config_fingerprint, load_checkpoint, save_checkpoint
@@ -80,6 +81,11 @@ def resume_fingerprint(config: TrainConfig) -> str:
     """Settings that must be the same to resume: everything but logging, device, threads and length."""
     data = config.to_dict()
     data["collector"] = {k: v for k, v in data["collector"].items() if k != "total_frames"}
+    # The aircraft by its model, not by the path it was given as; the paper's as runs from before the
+    # setting recorded it (none), so that they resume.
+    flown = load_aircraft(data["env"].pop("aircraft"))
+    if flown.name != AIRCRAFT_NAME or not flown.packaged:
+        data["env"]["aircraft_model"] = flown.fingerprint
     return config_fingerprint(data, ignore=("log", "device", "threads"))
 
 
@@ -131,6 +137,8 @@ class Trainer:
         # paper's (``CoreConfig()``) whatever the version trains in.
         eval_core = CoreConfig() if c.env.disturbances else CoreConfig.ideal()
         core = version.task.core if c.env.disturbances else eval_core
+        self.aircraft = load_aircraft(c.env.aircraft)
+        eval_core, core = (dataclasses.replace(x, aircraft=c.env.aircraft) for x in (eval_core, core))
         self.task_config = dataclasses.replace(version.task, core=core)
         self.eval_task_config = dataclasses.replace(self.task_config, core=eval_core)
         self.window = version.flight_stack.window_steps
@@ -143,6 +151,7 @@ class Trainer:
         critics = [make_critic(net.lstm_hidden, net.mlp_hidden, PRIVILEGED_SIZE if privileged else 0, net.encoder,
                                self.window, obs_size).module.to(self.device) for _ in range(2)]
         self.stored_keys = stored_keys(self.task_config, privileged)
+        self.goal_range = goal_range(self.aircraft)  # relabelled goals stay within the task's
         self.sac = RecurrentSAC(
             self.actor.module[0].module, critics, gamma=c.optim.gamma, tau=c.optim.tau, alpha=c.optim.alpha,
             auto_alpha=c.optim.auto_alpha, target_entropy=c.optim.target_entropy, lr=c.optim.lr,
@@ -342,6 +351,8 @@ class Trainer:
             "frames": self.counters.frames,
             "seed": self.config.seed,
             "evaluation": evaluation,
+            "aircraft": self.aircraft.name,  # what it was trained on: refused on another (PolicyRuntime)
+            "aircraft_model": self.aircraft.fingerprint,
         }, path)
 
     # ------------------------------------------------------------------ training
@@ -350,7 +361,8 @@ class Trainer:
         task = self.task_config
         batch = relabel_goals(batch.to(self.device), c.buffer.relabel_fraction,
                               sideslip_weight=task.sideslip_weight, penalty_tail=task.penalty_tail,
-                              roll_weight=task.roll_weight, pitch_weight=task.pitch_weight)
+                              roll_weight=task.roll_weight, pitch_weight=task.pitch_weight,
+                              goal_range=self.goal_range)
         for key, value in self.sac.update(batch).items():
             self._losses.setdefault(key, []).append(value)
         self.counters.updates += 1

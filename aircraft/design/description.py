@@ -9,7 +9,8 @@ naming the file and the key (``wing.span_m``), never a model built from it.
 | section | fields |
 |---|---|
 | (top) | ``name``: the JSBSim aircraft name, also its folder's; ``description``: what it is (its JSBSim file header) |
-| ``[envelope]`` | ``FlightEnvelope``: altitude range, reference EAS, the analysis's Reynolds breakpoints |
+| ``[envelope]`` | ``FlightEnvelope``: altitude and EAS ranges, reference EAS, the analysis's Reynolds breakpoints |
+| ``[randomisation]`` | ``Randomisation``: where training episodes start (altitude and EAS ranges) |
 | ``[wing]`` | ``WingGeometry``: airfoil, span, area, planform break, root chord, dihedral, twist, incidence |
 | ``[aileron]`` | ``ControlSurfaceSpan``: spanwise extent, chord fraction |
 | ``[horizontal_tail]``, ``[vertical_tail]`` | ``TailSurface``: section, leading edges, chords, incidence, control chord, efficiency |
@@ -36,6 +37,7 @@ from .geometry import (
     ContactPoint,
     ControlSurfaceSpan,
     FlightEnvelope,
+    Randomisation,
     Rotor,
     TailSurface,
     WingGeometry,
@@ -50,6 +52,7 @@ except ModuleNotFoundError:  # Python 3.10
 # Section -> the AircraftGeometry fields it holds, flat (a dataclass section is the field itself).
 SECTIONS: dict[str, tuple[str, ...]] = {
     "envelope": ("envelope",),
+    "randomisation": ("randomisation",),
     "wing": ("wing",),
     "aileron": ("aileron",),
     "horizontal_tail": ("horizontal_tail",),
@@ -65,7 +68,7 @@ SECTIONS: dict[str, tuple[str, ...]] = {
                   "elevator_limit_deg", "rudder_limit_deg"),
     "contacts": ("contacts",),
 }
-_NESTED = {"envelope": FlightEnvelope, "wing": WingGeometry, "aileron": ControlSurfaceSpan, "horizontal_tail": TailSurface,
+_NESTED = {"envelope": FlightEnvelope, "randomisation": Randomisation, "wing": WingGeometry, "aileron": ControlSurfaceSpan, "horizontal_tail": TailSurface,
            "vertical_tail": TailSurface, "propeller": PropellerGeometry}
 _LISTS = {"rotors": Rotor, "contacts": ContactPoint}  # arrays of tables
 _TOP = ("name", "description")  # the keys before the first section
@@ -179,7 +182,20 @@ def check(g: AircraftGeometry) -> None:
     if not 0.0 <= low < high <= 30000.0:
         raise ValueError(f"envelope.altitude_range_m must be [low, high] with 0 <= low < high <= 30000 m, got "
                          f"{list(e.altitude_range_m)}")
-    _positive(e.reference_eas_mps, "envelope.reference_eas_mps")
+    v_low, v_high = e.eas_range_mps
+    if not 0.0 < v_low < v_high:
+        raise ValueError(f"envelope.eas_range_mps must be [low, high] with 0 < low < high m/s, got "
+                         f"{list(e.eas_range_mps)}")
+    if not v_low <= e.reference_eas_mps <= v_high:
+        raise ValueError(f"envelope.reference_eas_mps ({e.reference_eas_mps:g} m/s) must lie within "
+                         f"envelope.eas_range_mps ({v_low:g} to {v_high:g} m/s)")
+    r = g.randomisation
+    for key, (start_low, start_high), (env_low, env_high), unit in (
+            ("start_altitude_range_m", r.start_altitude_range_m, e.altitude_range_m, "m"),
+            ("start_eas_range_mps", r.start_eas_range_mps, e.eas_range_mps, "m/s")):
+        if not env_low <= start_low <= start_high <= env_high:
+            raise ValueError(f"randomisation.{key} must be [low, high] with low <= high inside the envelope "
+                             f"({env_low:g} to {env_high:g} {unit}), got {[start_low, start_high]}")
     re = e.reynolds
     if len(re) < 2 or re[0] <= 0.0 or any(b <= a for a, b in itertools.pairwise(re)):
         raise ValueError(f"envelope.reynolds must be two or more breakpoints above 0, increasing, got {list(re)}")

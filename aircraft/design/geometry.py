@@ -87,6 +87,7 @@ class FlightEnvelope:
     equivalent airspeed at the altitude (within ``altitude_range_m``) where it gives that number."""
 
     altitude_range_m: tuple[float, float] = (0.0, 20000.0)  # the paper's 0-20 km
+    eas_range_mps: tuple[float, float] = (8.0, 12.0)  # the paper's Section 3.4: goals and starts, trimmed
     reference_eas_mps: float = 10.0  # cruise EAS, the middle of the paper's 8-12 m/s
     # 10 m/s EAS on the 2.27 m chord: about 1.9e6 at sea level, 0.4e6 at 20 km.
     reynolds: tuple[float, ...] = (3.0e5, 5.0e5, 7.5e5, 1.0e6, 1.5e6, 2.0e6)
@@ -102,6 +103,15 @@ class FlightEnvelope:
 
 
 @dataclass(frozen=True)
+class Randomisation:
+    """Where a training episode starts: altitude and EAS drawn uniformly in these ranges, inside
+    the envelope (the paper's Section 3.4 for its aircraft)."""
+
+    start_altitude_range_m: tuple[float, float] = (500.0, 20000.0)
+    start_eas_range_mps: tuple[float, float] = (8.0, 12.0)
+
+
+@dataclass(frozen=True)
 class AircraftGeometry:
     """Everything the aerodynamic, mass and propulsion models are built from."""
 
@@ -110,6 +120,7 @@ class AircraftGeometry:
     description: str = ("Large solar-powered UAV: 35 m span, 359 kg, four electric propellers, conventional tail. "
                         "Reproduces the aircraft of Yan et al., Drones 2024, 8(9):428, Table 1.")
     envelope: FlightEnvelope = field(default_factory=FlightEnvelope)
+    randomisation: Randomisation = field(default_factory=Randomisation)
     wing: WingGeometry = field(default_factory=WingGeometry)
     aileron: ControlSurfaceSpan = field(default_factory=ControlSurfaceSpan)
     # Tail volume 0.40, typical of sailplanes and HALE aircraft (0.35-0.5); symmetric section.

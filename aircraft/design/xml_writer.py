@@ -18,11 +18,13 @@ Layout (JSBSim conventions; the folder is ``aircraft/<name>``, ``aircraft/solar_
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from xml.sax.saxutils import escape
 
 import numpy as np
 
+from .. import ENVELOPE_FILE
 from ..jsbsim_format import HEADER, INERTIA_SCALE, M_TO_FT, TERMS, fmt, reset_file
 from .geometry import AircraftGeometry
 
@@ -693,9 +695,23 @@ def isa_density_kg_m3(altitude_m: float) -> float:
     return float(p / (r * t))
 
 
+def envelope_file(g: AircraftGeometry) -> str:
+    """Where the aircraft flies, for the run-time code (``aircraft.Aircraft``), which reads no
+    description: the envelope, where training starts, and the surfaces' travel."""
+    e, r = g.envelope, g.randomisation
+    record = {"about": "where this aircraft flies, written by aircraft.design.build from its description",
+              "name": g.name, "altitude_range_m": list(e.altitude_range_m), "eas_range_mps": list(e.eas_range_mps),
+              "reference_eas_mps": e.reference_eas_mps, "start_altitude_range_m": list(r.start_altitude_range_m),
+              "start_eas_range_mps": list(r.start_eas_range_mps),
+              "surface_limits_deg": {"aileron": g.aileron_limit_deg, "elevator": g.elevator_limit_deg,
+                                     "rudder": g.rudder_limit_deg}}
+    return json.dumps(record, indent=2) + "\n"
+
+
 def aircraft_files(g: AircraftGeometry, data: dict) -> dict[str, str]:
     """Every file of the aircraft folder, relative path -> text."""
     return {
+        ENVELOPE_FILE: envelope_file(g),
         f"{g.name}.xml": top_file(g),
         "Metrics.xml": metrics(g, data),
         "MassBalance.xml": mass_balance(g, data),

@@ -3,32 +3,33 @@ as the build report (``scripts/build_aircraft.py``) gives them.
 
 The survey flies the model JSBSim loads (not the analysis's tables), so it checks the whole chain:
 at each of the envelope's three sample altitudes (near the floor, 5 % up the range; the middle; the
-ceiling) and three equivalent airspeeds (0.8, 1 and 1.25 x the reference EAS) it trims the aircraft, and at the
-reference EAS it names the linear modes (``jsbsim_env.analysis.modes``). A point without a trim
-is reported with the reason, not dropped.
+ceiling) and three equivalent airspeeds (the envelope's lowest, the reference, its highest) it
+trims the aircraft, and at the reference EAS it names the linear modes
+(``jsbsim_env.analysis.modes``). A point without a trim is reported with the reason, not dropped.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
+from aircraft import Aircraft
 from jsbsim_env.analysis.modes import LinearisationError, linear_modes
 from jsbsim_env.sim.simulation import Simulation, TrimError
 
-EAS_FACTORS = (0.8, 1.0, 1.25)
 
-
-def survey_points(altitudes_m, reference_eas_mps: float) -> list[tuple[float, float]]:
+def survey_points(aircraft: Aircraft) -> list[tuple[float, float]]:
     """(altitude m, EAS m/s) of the survey, altitudes outer."""
-    return [(h, f * reference_eas_mps) for h in altitudes_m for f in EAS_FACTORS]
+    low, high = aircraft.eas_range_mps
+    return [(h, v) for h in aircraft.sample_altitudes_m for v in (low, aircraft.reference_eas_mps, high)]
 
 
-def envelope_survey(root: Path | str, aircraft_name: str, altitudes_m, reference_eas_mps: float) -> list[dict]:
-    """One row per survey point at ``altitudes_m`` (the description's ``envelope.sample_altitudes_m``):
-    the trim (``TrimResult.as_dict``) or ``error``; ``modes`` at the reference EAS."""
-    sim = Simulation(root, aircraft_name=aircraft_name)
+def envelope_survey(aircraft: Aircraft | Path | str) -> list[dict]:
+    """One row per survey point of ``aircraft`` (``aircraft.load_aircraft``): the trim
+    (``TrimResult.as_dict``) or ``error``; ``modes`` at the reference EAS."""
+    sim = Simulation(aircraft)
+    reference_eas_mps = sim.aircraft.reference_eas_mps
     rows = []
-    for altitude_m, eas_mps in survey_points(altitudes_m, reference_eas_mps):
+    for altitude_m, eas_mps in survey_points(sim.aircraft):
         row: dict = {"altitude_m": altitude_m, "airspeed_eas_mps": eas_mps}
         try:
             trim = sim.trim(altitude_m, eas_mps, check_envelope=False)
@@ -71,4 +72,4 @@ def render_survey(rows: list[dict]) -> list[str]:
     return lines
 
 
-__all__ = ["EAS_FACTORS", "envelope_survey", "render_survey", "survey_points"]
+__all__ = ["envelope_survey", "render_survey", "survey_points"]

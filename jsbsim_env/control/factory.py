@@ -8,52 +8,50 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from jsbsim_env.control.gain_files import FILES, PACKAGED_DIR, gain_file
+from jsbsim_env.control.gain_files import GainsMissing as TunedGainsMissing
 from jsbsim_env.control.pid import PIDAttitudeController
 
 TUNED_CONTROLLER_NAMES = ("pid_tuned", "lqi_tuned")
 CONTROLLER_NAMES = ("policy", "pid", "lqi", *TUNED_CONTROLLER_NAMES)
-_HERE = Path(__file__).parent
-TUNED_GAIN_FILES = {"pid_tuned": _HERE / "pid_tuned_gains.json", "lqi_tuned": _HERE / "lqi_tuned_gains.json"}
+TUNED_GAIN_FILES = {name: PACKAGED_DIR / FILES[name] for name in TUNED_CONTROLLER_NAMES}  # the paper's aircraft's
 
 
-class TunedGainsMissing(FileNotFoundError):
-    """A tuned controller asked for before its gain file has been written."""
+def tuned_gain_file(name: str, aircraft=None) -> Path:
+    """The gain file of the tuned controller ``name`` of ``aircraft`` (the paper's by default);
+    ``TunedGainsMissing`` (one line saying how to write it) where it has not been written."""
+    return gain_file(name, aircraft)
 
 
-def tuned_gain_file(name: str) -> Path:
-    """The gain file of the tuned controller ``name``; ``TunedGainsMissing`` (one line saying how to
-    write it) where it has been deleted."""
-    path = TUNED_GAIN_FILES[name]
-    if not path.is_file():
-        controller = name.removesuffix("_tuned")
-        raise TunedGainsMissing(f"{name}: no tuned gain file {path}: write it with "
-                                f"`python scripts/tune_classical.py --controller {controller}`")
-    return path
+def make_controller(name: str, policy=None, backend: str = "onnx", network_alone: bool = False, aircraft=None,
+                    transfer: bool = False):
+    """The controller ``name`` for ``aircraft`` (``aircraft.load_aircraft``; the paper's by default).
 
-
-def make_controller(name: str, policy=None, backend: str = "onnx", network_alone: bool = False):
-    """``"policy"``: ``policy`` (a policy file; the shipped one when None) run by ``backend``
+    ``"policy"``: ``policy`` (a policy file; the shipped one when None) run by ``backend``
     ("onnx" or "torch"), without its classical stages where ``network_alone``
-    (``PolicyRuntime``); ``"pid"``: the gain-scheduled PID; ``"lqi"``: the gain-scheduled LQI;
-    ``"pid_tuned"``, ``"lqi_tuned"``: the same with their tuned gain files."""
+    (``PolicyRuntime``); refused on an aircraft other than the one it was trained on unless
+    ``transfer``. ``"pid"``: the gain-scheduled PID; ``"lqi"``: the gain-scheduled LQI;
+    ``"pid_tuned"``, ``"lqi_tuned"``: the same with their tuned gain files. The classical
+    controllers fly the aircraft's own gain tables (``gain_files``)."""
     if name == "policy":
         from jsbsim_env.control.policy import PolicyRuntime
 
-        return PolicyRuntime(policy, backend=backend, network_alone=network_alone)
+        return PolicyRuntime(policy, backend=backend, network_alone=network_alone, aircraft=aircraft,
+                             transfer=transfer)
     if network_alone:
         raise ValueError(f"network_alone is a setting of a policy, not of {name!r}")
     if name == "pid":
-        return PIDAttitudeController()
+        return PIDAttitudeController(aircraft=aircraft)
     if name == "lqi":
         from jsbsim_env.control.lqi import LQIAttitudeController
 
-        return LQIAttitudeController()
+        return LQIAttitudeController(aircraft=aircraft)
     if name == "pid_tuned":
-        return PIDAttitudeController(gains_path=tuned_gain_file(name))
+        return PIDAttitudeController(gains_path=tuned_gain_file(name, aircraft))
     if name == "lqi_tuned":
         from jsbsim_env.control.lqi import LQIAttitudeController
 
-        return LQIAttitudeController(gains_path=tuned_gain_file(name))
+        return LQIAttitudeController(gains_path=tuned_gain_file(name, aircraft))
     raise ValueError(f"controller must be one of {', '.join(CONTROLLER_NAMES)}, got {name!r}")
 
 

@@ -39,7 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
-from jsbsim_env.control import tuning
+from jsbsim_env.control import gain_files, tuning
 from jsbsim_env.control.pid import (
     DESIGN_ALTITUDES_M,
     DESIGN_EAS_MPS,
@@ -47,12 +47,13 @@ from jsbsim_env.control.pid import (
     SURFACE_INTEGRATOR_LIMIT_DEG,
     THROTTLE_INTEGRATOR_LIMIT,
     altitude_points,
+    design_eas_of,
     read_gain_file,
 )
 from jsbsim_env.sim.core import COMMAND_HIGH, COMMAND_LOW
 from jsbsim_env.sim.simulation import Simulation
 
-GAINS_PATH = Path(__file__).with_name("lqi_gains.json")
+GAINS_PATH = gain_files.PACKAGED_DIR / gain_files.FILES["lqi"]  # the paper's aircraft's
 DT_S = 1.0 / tuning.CONTROL_RATE_HZ
 
 # Bryson's rule: Q_ii = 1 / (acceptable size)^2, R_jj = 1 / (acceptable input)^2.
@@ -197,22 +198,24 @@ def design_point(sim: Simulation, altitude_m: float, eas_mps: float = DESIGN_EAS
 
 
 def gain_table(sim: Simulation, altitudes_m=DESIGN_ALTITUDES_M, progress=None, sizes: dict | None = None,
-               detune: bool = True) -> dict:
-    """The gain table (``write_gain_table``'s layout) designed at every altitude with Bryson's
-    ``sizes`` (default: ``bryson_sizes()``); ``detune`` as ``robust_block``'s."""
+               detune: bool = True, eas_mps: float = DESIGN_EAS_MPS) -> dict:
+    """The gain table (``write_gain_table``'s layout) designed at every altitude at ``eas_mps`` with
+    Bryson's ``sizes`` (default: ``bryson_sizes()``); ``detune`` as ``robust_block``'s."""
     sizes = bryson_sizes() if sizes is None else sizes
     rows = []
     for h in altitudes_m:
-        rows.append(design_point(sim, h, sizes=sizes, detune=detune))
+        rows.append(design_point(sim, h, eas_mps, sizes=sizes, detune=detune))
         if progress:
             progress(rows[-1])
-    return {"design_eas_mps": DESIGN_EAS_MPS, "control_rate_hz": tuning.CONTROL_RATE_HZ,
+    return {"design_eas_mps": float(eas_mps), "control_rate_hz": tuning.CONTROL_RATE_HZ,
             "method": "jsbsim_env.control.lqi", **{k: tuple(v) for k, v in sizes.items()}, "points": rows}
 
 
-def write_gain_table(path: Path = GAINS_PATH, altitudes_m=DESIGN_ALTITUDES_M, progress=None) -> dict:
-    """Design at every altitude and write the table as JSON; returns it."""
-    table = gain_table(Simulation(), altitudes_m, progress)
+def write_gain_table(path: Path = GAINS_PATH, altitudes_m=DESIGN_ALTITUDES_M, progress=None, aircraft=None,
+                     eas_mps: float = DESIGN_EAS_MPS) -> dict:
+    """Design ``aircraft`` (the paper's by default) at every altitude at ``eas_mps`` and write the
+    table as JSON; returns it."""
+    table = gain_table(Simulation(aircraft), altitudes_m, progress, eas_mps=eas_mps)
     tmp = path.with_suffix(".tmp")
     tmp.write_text(json.dumps(table, indent=1))  # inf is written as Infinity, which json reads back
     tmp.replace(path)
@@ -235,6 +238,7 @@ class LQIGainSchedule:
 
     def _load(self, table: dict, path: Path | str) -> None:
         self.altitudes_m, self.values = altitude_points(table, GAIN_COLUMNS, path, "LQI")
+        self.design_eas_mps = design_eas_of(table, path, "LQI")
         self.margins = [p.get("margins") for p in table["points"]]
         self._altitudes = self.altitudes_m.tolist()
         self._rows = self.values.tolist()
@@ -270,11 +274,13 @@ class LQIAttitudeController:
     ``controllers.base.AttitudeController`` interface."""
 
     def __init__(self, schedule: LQIGainSchedule | None = None, feedforward: bool = True,
-                 gains_path: Path | str | None = None):
-        """``schedule``, or the gain table at ``gains_path`` (a tuned one), or ``lqi_gains.json``."""
+                 gains_path: Path | str | None = None, aircraft=None):
+        """``schedule``, or the gain table at ``gains_path`` (a tuned one), or ``aircraft``'s table
+        (``gain_files.gain_file``; the paper's aircraft's ``lqi_gains.json`` by default)."""
         if schedule is not None and gains_path is not None:
             raise ValueError("give a schedule or a gain file, not both")
-        self.schedule = schedule or LQIGainSchedule(GAINS_PATH if gains_path is None else gains_path)
+        self.schedule = schedule or LQIGainSchedule(gain_files.gain_file("lqi", aircraft) if gains_path is None
+                                                    else gains_path)
         self.feedforward = feedforward
         self.reset()
 
@@ -292,16 +298,17 @@ class LQIAttitudeController:
         alt, roll, pitch, p, q, r, eas, alpha, beta, ail, elev, rud, thr = m
         g = self.schedule.at(alt)
         e_trim, t_trim, th_trim, a_trim = g[-4], g[-3], math.radians(g[-2]), math.radians(g[-1])
-        q_s = (DESIGN_EAS_MPS / max(eas, MIN_EAS_FOR_SCALING_MPS)) ** 2
+        v_design = self.schedule.design_eas_mps
+        q_s = (v_design / max(eas, MIN_EAS_FOR_SCALING_MPS)) ** 2
         deg = 180.0 / math.pi
         last = self.last_command or [0.0, e_trim, 0.0, t_trim]
         ff = 1.0 if self.feedforward else 0.0
 
         # Surface channels in the model's units: deflection from trim over q_s.
         elev_cmd, thr_cmd = _block(
-            g, 0, (eas - DESIGN_EAS_MPS, alpha - a_trim, pitch - th_trim, q, (elev * deg - e_trim) / q_s, thr - t_trim),
+            g, 0, (eas - v_design, alpha - a_trim, pitch - th_trim, q, (elev * deg - e_trim) / q_s, thr - t_trim),
             ((last[1] - e_trim) / q_s, last[3] - t_trim), (self.z_pitch, self.z_eas),
-            (ff * (sp[1] - th_trim), ff * (sp[2] - DESIGN_EAS_MPS)))
+            (ff * (sp[1] - th_trim), ff * (sp[2] - v_design)))
         ail_cmd, rud_cmd = _block(g, _N_LONG, (beta, roll, p, r, ail * deg / q_s, rud * deg / q_s),
                                   (last[0] / q_s, last[2] / q_s), (self.z_roll, self.z_beta), (ff * sp[0], 0.0))
         raw = [q_s * ail_cmd, e_trim + q_s * elev_cmd, q_s * rud_cmd, t_trim + thr_cmd]

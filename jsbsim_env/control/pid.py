@@ -27,13 +27,13 @@ from pathlib import Path
 
 import numpy as np
 
-from jsbsim_env.control import tuning
+from jsbsim_env.control import gain_files, tuning
 from jsbsim_env.sim.core import COMMAND_HIGH, COMMAND_LOW
 from jsbsim_env.sim.simulation import Simulation
 
 DESIGN_ALTITUDES_M = (500.0, 1000.0, 2000.0, 5000.0, 10000.0, 15000.0, 20000.0)
 DESIGN_EAS_MPS = 10.0
-GAINS_PATH = Path(__file__).with_name("pid_gains.json")
+GAINS_PATH = gain_files.PACKAGED_DIR / gain_files.FILES["pid"]  # the paper's aircraft's
 SURFACE_INTEGRATOR_LIMIT_DEG = 15.0
 THROTTLE_INTEGRATOR_LIMIT = 0.5
 MIN_EAS_FOR_SCALING_MPS = 6.0  # below this the dynamic-pressure scaling stops growing
@@ -72,20 +72,22 @@ def design_gains(sim: Simulation, altitude_m: float, eas_mps: float = DESIGN_EAS
                        plant.pitch_trim_deg, float(plant.b_long[0, 3]))
 
 
-def write_gain_table(path: Path = GAINS_PATH, altitudes_m=DESIGN_ALTITUDES_M, progress=None) -> dict:
-    """Design at every altitude and write the table as JSON; returns it.
+def write_gain_table(path: Path = GAINS_PATH, altitudes_m=DESIGN_ALTITUDES_M, progress=None, aircraft=None,
+                     eas_mps: float = DESIGN_EAS_MPS) -> dict:
+    """Design ``aircraft`` (the paper's by default) at every altitude at ``eas_mps`` and write the
+    table as JSON; returns it.
 
     Each altitude starts its search from the gains of the one below (continuation), so the
     schedule follows one family of solutions instead of hopping between local optima."""
-    sim = Simulation()
+    sim = Simulation(aircraft)
     rows = []
     previous = None
     for h in altitudes_m:
-        previous = design_gains(sim, h, start=previous)
+        previous = design_gains(sim, h, eas_mps, start=previous)
         rows.append({"altitude_m": float(h), **asdict(previous)})
         if progress:
             progress(rows[-1])
-    table = {"design_eas_mps": DESIGN_EAS_MPS, "method": "jsbsim_env.control.tuning", "points": rows}
+    table = {"design_eas_mps": float(eas_mps), "method": "jsbsim_env.control.tuning", "points": rows}
     tmp = path.with_suffix(".tmp")
     tmp.write_text(json.dumps(table, indent=1))
     tmp.replace(path)
@@ -98,6 +100,15 @@ def read_gain_file(path: Path | str, what: str) -> dict:
         return json.loads(Path(path).read_text())
     except (OSError, ValueError) as exc:
         raise ValueError(f"{what} gain table {path} is missing or malformed: {exc}") from exc
+
+
+def design_eas_of(table: dict, path: Path | str, what: str) -> float:
+    """The EAS a gain table was designed at (m/s; ``DESIGN_EAS_MPS`` in a table that does not say),
+    which the dynamic-pressure scaling of its gains divides by."""
+    value = table.get("design_eas_mps", DESIGN_EAS_MPS)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 < value < math.inf:
+        raise ValueError(f"{what} gain table {path}: design_eas_mps must be a positive number, got {value!r}")
+    return float(value)
 
 
 def altitude_points(table: dict, columns, path: Path | str, what: str) -> tuple[np.ndarray, np.ndarray]:
@@ -131,6 +142,7 @@ class GainSchedule:
     def _load(self, table: dict, path: Path | str) -> None:
         names = [f.name for f in fields(DesignPoint)]
         self.altitudes_m, self.values = altitude_points(table, names, path, "PID")
+        self.design_eas_mps = design_eas_of(table, path, "PID")
 
         # Plain floats: read every control step, on one altitude, where np.interp's per-call cost
         # (about 1.5 us a column) dominates.
@@ -163,11 +175,14 @@ class PIDAttitudeController:
     """Gain-scheduled PID on pitch, airspeed, roll and yaw (module docstring); shares the
     ``controllers.base.AttitudeController`` interface."""
 
-    def __init__(self, schedule: GainSchedule | None = None, gains_path: Path | str | None = None):
-        """``schedule``, or the gain table at ``gains_path`` (a tuned one), or ``pid_gains.json``."""
+    def __init__(self, schedule: GainSchedule | None = None, gains_path: Path | str | None = None, aircraft=None):
+        """``schedule``, or the gain table at ``gains_path`` (a tuned one), or ``aircraft``'s table
+        (``gain_files.gain_file``; the paper's aircraft's ``pid_gains.json`` by default)."""
         if schedule is not None and gains_path is not None:
             raise ValueError("give a schedule or a gain file, not both")
-        self.schedule = schedule or GainSchedule(GAINS_PATH if gains_path is None else gains_path)
+        self.schedule = schedule or GainSchedule(gain_files.gain_file("pid", aircraft) if gains_path is None
+                                                 else gains_path)
+        self._design_eas_mps = self.schedule.design_eas_mps
         self.reset()
 
     def reset(self) -> None:
@@ -184,7 +199,7 @@ class PIDAttitudeController:
             raise ValueError(f"measurement (13,) and setpoint (3,) must be finite; got {m} and {sp}")
         altitude, roll, pitch, p, q, r, eas, beta = m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[8]
         g = self.schedule.at(altitude)
-        q_s = (DESIGN_EAS_MPS / max(eas, MIN_EAS_FOR_SCALING_MPS)) ** 2
+        q_s = (self._design_eas_mps / max(eas, MIN_EAS_FOR_SCALING_MPS)) ** 2
         e_roll, e_pitch, e_eas = roll - sp[0], pitch - sp[1], eas - sp[2]
         if self.r_low_radps is None:
             self.r_low_radps = r

@@ -18,6 +18,7 @@ its ONNX export (onnxruntime, one thread).
 from __future__ import annotations
 
 import hashlib
+import json
 import math
 import os
 import tempfile
@@ -29,6 +30,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from aircraft import AIRCRAFT_NAME, Aircraft, load_aircraft
 from jsbsim_env.control.checked_io import DamagedFileError, checked_load, non_finite_entries
 from jsbsim_env.control.network import ENCODERS, ActorNet, encoder_inputs
 from jsbsim_env.control.observation import GOAL_NAMES, ActionError
@@ -51,6 +53,44 @@ _LARGEST_INPUT = 1e30
 
 class PolicyFileError(RuntimeError):
     """A policy file that cannot be read or lacks what the runtime needs."""
+
+
+class WrongAircraftError(PolicyFileError):
+    """A policy flown on an aircraft other than the one it was trained on, without asking for it."""
+
+
+def trained_aircraft(meta: dict, path: Path) -> tuple[str, str | None]:
+    """The aircraft a policy file was trained on: its name and model fingerprint, from the file
+    (``Trainer.save_policy``), else from the record beside a shipped policy; a file that records
+    neither was written before other aircraft could be trained, on the paper's (fingerprint unknown)."""
+    if "aircraft_model" in meta:
+        return str(meta.get("aircraft", "?")), str(meta["aircraft_model"])
+    record = path.with_suffix(".json")
+    if record.is_file():
+        try:
+            model = json.loads(record.read_text()).get("aircraft_model")
+        except (OSError, ValueError, AttributeError):
+            model = None
+        if isinstance(model, str):
+            return AIRCRAFT_NAME, model
+    return AIRCRAFT_NAME, None
+
+
+def check_aircraft(meta: dict, path: Path, flown: Aircraft) -> None:
+    """Refuse (``WrongAircraftError``, naming both) to fly a policy on an aircraft other than the one
+    it was trained on: another model fingerprint, or, for a file that records none, another
+    aircraft than the paper's."""
+    name, model = trained_aircraft(meta, path)
+    if model is None:
+        same = flown.packaged and flown.name == AIRCRAFT_NAME
+        trained = f"{name} (a file that records no model)"
+    else:
+        same = model == flown.fingerprint
+        trained = f"{name} (model {model[:12]})"
+    if not same:
+        raise WrongAircraftError(f"{path} was trained on {trained} and would fly {flown.describe()} (model "
+                                 f"{flown.fingerprint[:12]}): a policy flies the aircraft it was trained on; ask for a "
+                                 "transfer experiment (transfer=True, --transfer) to fly it on another")
 
 
 def shipped_policy_path() -> Path:
@@ -223,16 +263,23 @@ class PolicyRuntime:
         network_alone: fly the network without the classical stages its file records (goal trim,
             surface trim), to measure what the network does by itself; its inputs (window, error
             integrals) stay as they are.
+        aircraft: the aircraft it flies (``aircraft.load_aircraft``; the paper's by default): its
+            surface trim's gains are that aircraft's PID's. A policy trained on another aircraft is
+            refused (``WrongAircraftError``) unless ``transfer``.
     """
 
-    def __init__(self, policy_path: Path | str | None = None, backend: str = "onnx", network_alone: bool = False):
+    def __init__(self, policy_path: Path | str | None = None, backend: str = "onnx", network_alone: bool = False,
+                 aircraft: Aircraft | Path | str | None = None, transfer: bool = False):
         path = Path(policy_path) if policy_path is not None else shipped_policy_path()
         if policy_path is None and not path.exists():
             raise PolicyFileError("no trained controller ships with this version of the package; pass a policy file "
                                   "(for example runs/<name>/best_policy.pt)")
         self.actor, self.meta = load_policy(path)
+        self.aircraft = load_aircraft(aircraft)
+        if not transfer:
+            check_aircraft(self.meta, path, self.aircraft)
         settings = self.meta["stack"]
-        self.stack = ControlStack(settings.network_alone() if network_alone else settings)
+        self.stack = ControlStack(settings.network_alone() if network_alone else settings, self.aircraft)
         self.window = self.stack.settings.window_steps
         self.observation_size = self.stack.settings.observation_size
         self.backend = backend

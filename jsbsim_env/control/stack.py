@@ -24,6 +24,7 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
+from jsbsim_env.control.gain_files import gain_file
 from jsbsim_env.control.integrals import ErrorIntegrals, check_error_integrals
 from jsbsim_env.control.observation import (
     GOAL_COLUMNS,
@@ -34,6 +35,7 @@ from jsbsim_env.control.observation import (
     observation_size,
     scale_row,
 )
+from jsbsim_env.control.pid import GainSchedule
 from jsbsim_env.control.trims import (
     GoalTrim,
     SurfaceTrim,
@@ -114,12 +116,14 @@ class StackSettings:
 
 
 class ControlStack:
-    """The stages around the network for one aircraft (module docstring), on plain floats."""
+    """The stages around the network for one aircraft (module docstring), on plain floats; the
+    surface trim's gains are ``aircraft``'s PID's (the paper's aircraft's by default)."""
 
-    def __init__(self, settings: StackSettings | None = None):
+    def __init__(self, settings: StackSettings | None = None, aircraft=None):
         self.settings = s = settings or StackSettings()
         self.goal_trim = GoalTrim(s.goal_trim_time_constant_s) if s.goal_trim_time_constant_s else None
-        self.surface_trim = SurfaceTrim(s.surface_trim_gain) if s.surface_trim_gain else None
+        self.surface_trim = (SurfaceTrim(s.surface_trim_gain, GainSchedule(gain_file("pid", aircraft)))
+                             if s.surface_trim_gain else None)
         self.integrals = ErrorIntegrals() if s.error_integrals else None
         self.window = ObservationWindow(s.window_steps, s.observation_size)
         self.needs_interval = any(stage is not None for stage in (self.goal_trim, self.surface_trim, self.integrals))

@@ -29,7 +29,6 @@ import math
 from dataclasses import fields
 
 from jsbsim_env.control.pid import (
-    DESIGN_EAS_MPS,
     MIN_EAS_FOR_SCALING_MPS,
     SURFACE_INTEGRATOR_LIMIT_DEG,
     DesignPoint,
@@ -87,7 +86,7 @@ class SurfaceTrim:
         (roll, pitch in rad, ...); returns the trims (deg)."""
         _check_interval(dt_s)
         altitude, eas = float(measurement[0]), float(measurement[6])
-        q_s = (DESIGN_EAS_MPS / max(eas, MIN_EAS_FOR_SCALING_MPS)) ** 2
+        q_s = (self._schedule.design_eas_mps / max(eas, MIN_EAS_FOR_SCALING_MPS)) ** 2
         k = self.gain * q_s * dt_s
         gains = self._schedule.interpolate(altitude, self._gain_columns)
         increments = [k * gains[0] * (float(measurement[_ROLL]) - float(goal[0])),

@@ -24,19 +24,17 @@ from pathlib import Path
 
 import numpy as np
 
+from aircraft import AIRCRAFT_NAME, AircraftError, load_aircraft
 from jsbsim_env.sim import disturbances as dist
 from jsbsim_env.sim import turbulence as turb
 from jsbsim_env.sim.model_check import SCALED_TERMS
 from jsbsim_env.sim.simulation import (
-    ALTITUDE_RANGE_M,
     CONTROL_INPUTS,
-    EAS_RANGE_MPS,
     FT_TO_M,
     M_TO_FT,
     RHO0_KG_M3,
     RHO0_SLUG_FT3,
     SURFACE_LIMITS_DEG,
-    TERRAIN_ELEVATION_M,
     Simulation,
 )
 from jsbsim_env.sim.trim_table import TrimTable
@@ -64,17 +62,23 @@ class Envelope:
     max_abs_pitch_deg: float = 45.0
     alpha_range_deg: tuple[float, float] = (-20.0, 25.0)
     eas_range_mps: tuple[float, float] = (4.0, 25.0)
-    # Lower bound: height above the terrain (below it, a ground strike). The terrain lies at
-    # sim.TERRAIN_ELEVATION_M, 100 m below sea level, so an episode may start at the envelope's
-    # floor (0 m) and ends 50 m below it. Upper bound: altitude above sea level.
+    # Lower bound: height above the terrain (below it, a ground strike). The terrain lies
+    # sim.TERRAIN_BELOW_FLOOR_M (100 m) below the envelope's floor (sea level for the paper's
+    # aircraft), so an episode may start at the floor and ends 50 m below it. Upper bound: altitude
+    # above sea level.
     altitude_range_m: tuple[float, float] = (50.0, 22000.0)
 
 
 @dataclass(frozen=True)
 class CoreConfig:
-    """Disturbances and episode start. Defaults are the paper's training setting (all disturbances on),
-    but for the clip of the turbulence rates (``turbulence_clip``)."""
+    """The aircraft, disturbances and episode start. Defaults are the paper's training setting (its
+    aircraft, all disturbances on), but for the clip of the turbulence rates (``turbulence_clip``).
 
+    ``aircraft`` is a name or path ``aircraft.load_aircraft`` reads; ``altitude_range_m`` and
+    ``eas_range_mps``, where episodes start, are the aircraft's own (its description's
+    ``[randomisation]``) when None."""
+
+    aircraft: str = AIRCRAFT_NAME
     sim_rate_hz: float = 120.0
     control_interval_s: tuple[float, float] = (0.040, 0.060)
     delay_s: tuple[float, float] = (0.080, 0.120)
@@ -94,8 +98,8 @@ class CoreConfig:
     servo_rate_limit_degps: float = 100.0  # every surface servo (the paper's Section 2 and Table 1)
     noise_scale: float = 1.0  # multiplies every sigma of the paper's Table 3 (robustness sweeps)
     parameter_strength: float = 1.0  # multiplies each Table 4 draw's distance from 1 (0: nominal aircraft)
-    altitude_range_m: tuple[float, float] = (500.0, 20000.0)
-    eas_range_mps: tuple[float, float] = EAS_RANGE_MPS
+    altitude_range_m: tuple[float, float] | None = None  # None: the aircraft's start range
+    eas_range_mps: tuple[float, float] | None = None  # None: the aircraft's start range
     # Start perturbation about the trim: uniform within +- these.
     perturb_attitude_deg: float = 5.0
     perturb_rate_degps: float = 2.0
@@ -104,6 +108,12 @@ class CoreConfig:
     envelope: Envelope = field(default_factory=Envelope)
 
     def __post_init__(self):
+        if isinstance(self.aircraft, Path):  # a path is kept as text: the configuration is written as JSON
+            object.__setattr__(self, "aircraft", str(self.aircraft))
+        try:
+            load_aircraft(self.aircraft)
+        except AircraftError as err:
+            raise ValueError(f"CoreConfig.aircraft: {err}") from None
         if not (self.noise_scale >= 0.0 and self.parameter_strength >= 0.0):
             raise ValueError(f"noise_scale and parameter_strength must be >= 0, got {self.noise_scale} and "
                              f"{self.parameter_strength}")
@@ -124,6 +134,8 @@ class CoreConfig:
             raise ValueError(f"servo_rate_limit_degps must be positive, got {self.servo_rate_limit_degps}")
         # The start ranges as ranges here; FlightCore checks them against where its aircraft can start.
         for name in ("altitude_range_m", "eas_range_mps"):
+            if getattr(self, name) is None:
+                continue
             low, high = getattr(self, name)
             if not (-math.inf < low <= high < math.inf):  # NaN fails too
                 raise ValueError(f"{name} must be a finite range (low, high) with low <= high, got {(low, high)}")
@@ -180,14 +192,15 @@ class CommandError(ValueError):
     """A command that is not finite or not inside the actuator ranges."""
 
 
-def start_ranges(span_m: float) -> tuple[tuple[float, float], tuple[float, float]]:
-    """Where an episode of an aircraft of span ``span_m`` can start: altitude (m above sea level)
-    and EAS (m/s). EAS: the trim table's range (``EAS_RANGE_MPS``; outside it a start would take
-    the nearest trim for its own). Altitude: up to the envelope's and the trim table's top
-    (``ALTITUDE_RANGE_M``); below the envelope's floor (sea level) down to half the span above the
-    terrain (``TERRAIN_ELEVATION_M``), where no attitude puts a wing tip into it: such a start ends
-    as a ground strike, as the tests of that check use it."""
-    return (TERRAIN_ELEVATION_M + 0.5 * span_m, ALTITUDE_RANGE_M[1]), EAS_RANGE_MPS
+def start_ranges(sim: Simulation, span_m: float) -> tuple[tuple[float, float], tuple[float, float]]:
+    """Where an episode of ``sim``'s aircraft, of span ``span_m``, can start: altitude (m above sea
+    level) and EAS (m/s). EAS: the envelope's, the trim table's range (outside it a start would take
+    the nearest trim for its own). Altitude: up to the envelope's and the trim table's top; below
+    the envelope's floor down to half the span above the terrain (``sim.terrain_elevation_m``),
+    where no attitude puts a wing tip into it: such a start ends as a ground strike, as the tests of
+    that check use it."""
+    envelope = sim.aircraft
+    return (sim.terrain_elevation_m + 0.5 * span_m, envelope.altitude_range_m[1]), envelope.eas_range_mps
 
 
 def _start_value(name: str, value, limits: tuple[float, float], unit: str, why: str) -> float:
@@ -206,23 +219,27 @@ class FlightCore:
     """One aircraft with delay, noise, turbulence, parameter sets and backlash.
 
     Args:
-        config: disturbances and episode start.
-        root: JSBSim root; the packaged aircraft by default. Episodes start from this aircraft's trim.
+        config: the aircraft (``CoreConfig.aircraft``; episodes start from its trim), disturbances
+            and episode start.
     """
 
-    def __init__(self, config: CoreConfig | None = None, root: Path | str | None = None):
+    def __init__(self, config: CoreConfig | None = None):
         self.config = config or CoreConfig()
-        self.root = root
-        self.trim_table = TrimTable.shared(root)
+        self.aircraft = load_aircraft(self.config.aircraft)
+        self.trim_table = TrimTable.shared(self.aircraft)
+        # Where episodes start when not told: the configuration's ranges, or the aircraft's own.
+        self.altitude_range_m = self.config.altitude_range_m or self.aircraft.start_altitude_range_m
+        self.eas_range_mps = self.config.eas_range_mps or self.aircraft.start_eas_range_mps
         self.noise = dist.OrnsteinUhlenbeckNoise([self.config.noise_scale * s for s in NOISE_SIGMA],
                                                  self.config.noise_reversion_per_s)
-        self._command_scale = (1.0 / SURFACE_LIMITS_DEG["aileron"], 1.0 / SURFACE_LIMITS_DEG["elevator"],
-                               1.0 / SURFACE_LIMITS_DEG["rudder"], 1.0)
         self._load()
-        self.start_altitude_range_m, self.start_eas_range_mps = start_ranges(self.span_m)
+        # JSBSim's normalised commands are fractions of the aircraft's own surface travel.
+        limits = self.sim.surface_limits_deg
+        self._command_scale = (1.0 / limits["aileron"], 1.0 / limits["elevator"], 1.0 / limits["rudder"], 1.0)
+        self.start_altitude_range_m, self.start_eas_range_mps = start_ranges(self.sim, self.span_m)
         for name, (low, high), limits, unit, why in (
-                ("altitude_range_m", self.config.altitude_range_m, self.start_altitude_range_m, "m", self._altitude_why),
-                ("eas_range_mps", self.config.eas_range_mps, self.start_eas_range_mps, "m/s", self._eas_why)):
+                ("altitude_range_m", self.altitude_range_m, self.start_altitude_range_m, "m", self._altitude_why),
+                ("eas_range_mps", self.eas_range_mps, self.start_eas_range_mps, "m/s", self._eas_why)):
             for value in (low, high):
                 _start_value(f"CoreConfig.{name}", value, limits, unit, why)
         self.setup: EpisodeSetup | None = None
@@ -233,7 +250,7 @@ class FlightCore:
 
     def _load(self) -> None:
         """A fresh JSBSim instance, with direct accessors to the properties used every step."""
-        self.sim = Simulation(self.root, sim_rate_hz=self.config.sim_rate_hz)
+        self.sim = Simulation(self.aircraft, sim_rate_hz=self.config.sim_rate_hz)
         self.dt_s = self.sim.dt_s
         self.span_m = self.sim["metrics/bw-ft"] * FT_TO_M
         f = self.sim.fdm
@@ -257,8 +274,9 @@ class FlightCore:
 
     @property
     def _altitude_why(self) -> str:
-        return (f"the flight envelope is {ALTITUDE_RANGE_M[0]:g}..{ALTITUDE_RANGE_M[1]:g} m; below it a start must "
-                f"clear the terrain at {TERRAIN_ELEVATION_M:g} m by half the {self.span_m:.3g} m span")
+        low, high = self.aircraft.altitude_range_m
+        return (f"{self.aircraft.name}'s flight envelope is {low:g}..{high:g} m; below it a start must "
+                f"clear the terrain at {self.sim.terrain_elevation_m:g} m by half the {self.span_m:.3g} m span")
 
     @property
     def _eas_why(self) -> str:
@@ -289,8 +307,8 @@ class FlightCore:
                 raise ValueError(f"heading_deg must be a finite number, got {heading_deg!r}")
         self.rng = rng = np.random.default_rng(seed)
         # Draw everything up front, in a fixed order, so that overrides do not shift later draws.
-        alt = float(rng.uniform(*cfg.altitude_range_m))
-        eas = float(rng.uniform(*cfg.eas_range_mps))
+        alt = float(rng.uniform(*self.altitude_range_m))
+        eas = float(rng.uniform(*self.eas_range_mps))
         interval = float(rng.uniform(*cfg.control_interval_s))
         delay = float(rng.uniform(*cfg.delay_s))
         perturb = rng.uniform(-1.0, 1.0, size=7)
@@ -437,7 +455,7 @@ class FlightCore:
                 g[12]()]
 
     def height_above_ground_m(self) -> float:
-        """Height above the simulated terrain (``sim.TERRAIN_ELEVATION_M``), for the ground-strike check."""
+        """Height above the simulated terrain (``sim.terrain_elevation_m``), for the ground-strike check."""
         return self._get_state[15]() * FT_TO_M
 
     def _measure(self) -> np.ndarray:

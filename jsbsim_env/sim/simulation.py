@@ -14,7 +14,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-import aircraft
+from aircraft import SURFACES, Aircraft, load_aircraft
 from jsbsim_env.sim.model_check import ModelError, validate_loaded_model
 
 FT_TO_M = 0.3048
@@ -25,12 +25,15 @@ RHO0_KG_M3 = 1.225  # sea-level density of the 1976 standard atmosphere
 RHO0_SLUG_FT3 = 0.0023768907688269184  # the same in JSBSim's units
 SLUG_FT3_TO_KG_M3 = 515.378818
 
-ALTITUDE_RANGE_M = (0.0, 20000.0)  # the flight envelope of the aircraft (the paper's Section 2 and Table 1)
-# The ground under every simulation: 100 m below the envelope's floor, so that the aircraft trims
-# and flies at sea level with its landing gear clear, and an episode started there still has the
-# flight core's 50 m ground-strike margin (core.Envelope) before it ends.
-TERRAIN_ELEVATION_M = ALTITUDE_RANGE_M[0] - 100.0
+# The paper's aircraft's flight envelope (its Section 2 and Table 1; 3.4 for the EAS), as its
+# aircraft/solar_uav/envelope.json records it; each aircraft's is ``Simulation.aircraft``'s.
+ALTITUDE_RANGE_M = (0.0, 20000.0)
 EAS_RANGE_MPS = (8.0, 12.0)
+# The ground under every simulation: 100 m below the envelope's floor, so that the aircraft trims
+# and flies at its floor with its landing gear clear, and an episode started there still has the
+# flight core's 50 m ground-strike margin (core.Envelope) before it ends.
+TERRAIN_BELOW_FLOOR_M = 100.0
+TERRAIN_ELEVATION_M = ALTITUDE_RANGE_M[0] - TERRAIN_BELOW_FLOOR_M  # the paper's aircraft's
 DEFAULT_SIM_RATE_HZ = 120.0
 # Trim's first guess of the rotor speed per m/s of true airspeed: cruise trims lie at 24-26 rpm per
 # m/s (about a constant advance ratio at constant EAS). The full-throttle speed turns it into a throttle.
@@ -54,6 +57,8 @@ ALPHADOT_TOL_RADPS = 1e-9
 # JSBSim's FCS inputs, normalised to +-1 (aileron, elevator, rudder) or 0..1 (throttle).
 CONTROL_INPUTS = ("fcs/aileron-cmd-norm", "fcs/elevator-cmd-norm", "fcs/rudder-cmd-norm",
                   "fcs/throttle-cmd-norm[0]")
+# The commands' range (the paper's Table 2, its aircraft's travel); an aircraft whose surfaces travel
+# less (``Simulation.surface_limits_deg``) holds them at its own limits beyond.
 SURFACE_LIMITS_DEG = {"aileron": 30.0, "elevator": 30.0, "rudder": 20.0}
 
 
@@ -103,36 +108,40 @@ def _quiet_jsbsim() -> None:
 
 
 class Simulation:
-    """A JSBSim instance flying the solar UAV.
+    """A JSBSim instance flying one aircraft (the paper's solar UAV by default).
 
-    The terrain lies at ``TERRAIN_ELEVATION_M`` (below sea level), so ``position/h-agl-ft`` is the
+    The terrain lies ``TERRAIN_BELOW_FLOOR_M`` below the aircraft's envelope floor
+    (``terrain_elevation_m``; below sea level for the paper's), so ``position/h-agl-ft`` is the
     height above that, and an initial-condition file's ``<altitude>`` (which JSBSim reads as
-    height above the terrain) places the aircraft 100 m lower than the same ``<altitudeMSL>``.
+    height above the terrain) places the aircraft that much lower than the same ``<altitudeMSL>``.
 
     Args:
-        root: JSBSim root folder; defaults to the one that ships with the package.
+        aircraft: the aircraft (``aircraft.load_aircraft``: a name, a built aircraft's folder or
+            JSBSim root, or an ``Aircraft``); the paper's by default.
         sim_rate_hz: integration rate of the flight dynamics.
-        aircraft_name: aircraft folder under ``<root>/aircraft``.
     """
 
-    def __init__(self, root: Path | str | None = None, sim_rate_hz: float = DEFAULT_SIM_RATE_HZ,
-                 aircraft_name: str = aircraft.AIRCRAFT_NAME):
+    def __init__(self, aircraft: Aircraft | Path | str | None = None, sim_rate_hz: float = DEFAULT_SIM_RATE_HZ):
         import jsbsim
 
         _quiet_jsbsim()
-        self.root = Path(root) if root is not None else aircraft.jsbsim_root()
+        self.aircraft = load_aircraft(aircraft)
+        self.root = self.aircraft.root
+        name = self.aircraft.name
+        self.surface_limits_deg = dict(zip(SURFACES, self.aircraft.surface_limits_deg))
+        self.terrain_elevation_m = self.aircraft.altitude_range_m[0] - TERRAIN_BELOW_FLOOR_M
         self.fdm = jsbsim.FGFDMExec(str(self.root), None)
         self.fdm.set_debug_level(0)
         self.fdm.set_dt(1.0 / sim_rate_hz)
         try:
-            loaded = self.fdm.load_model(aircraft_name)
+            loaded = self.fdm.load_model(name)
         except Exception as err:  # JSBSim raises BaseError or RuntimeError on malformed XML
-            raise ModelError(f"JSBSim could not load aircraft {aircraft_name!r} from {self.root}: {err}") from err
+            raise ModelError(f"JSBSim could not load aircraft {name!r} from {self.root}: {err}") from err
         if not loaded:
-            raise ModelError(f"JSBSim could not load aircraft {aircraft_name!r} from {self.root}/aircraft")
+            raise ModelError(f"JSBSim could not load aircraft {name!r} from {self.root}/aircraft")
         self.dt_s = 1.0 / sim_rate_hz
         self.engine_count = self.fdm.get_propulsion().get_num_engines()
-        self.fdm["ic/terrain-elevation-ft"] = TERRAIN_ELEVATION_M * M_TO_FT
+        self.fdm["ic/terrain-elevation-ft"] = self.terrain_elevation_m * M_TO_FT
         # JSBSim 1.3 leaves a propeller's absorbed power uninitialised until the propeller's first
         # step, and the motors' speed controllers (Systems/rotor_speed.xml) read it in the flight
         # control, which runs before the propulsion: whatever the heap held (at times a NaN) would
@@ -141,7 +150,7 @@ class Simulation:
             self.fdm[f"propulsion/engine[{i}]/propeller-power-ftlbps"] = 0.0
         # JSBSim flies a model with missing elements (reading them as 0); refuse it here. This
         # also runs the first initial-condition pass.
-        validate_loaded_model(self.fdm, self.root / "aircraft" / aircraft_name / f"{aircraft_name}.xml")
+        validate_loaded_model(self.fdm, self.aircraft.folder / f"{name}.xml")
         # Start the motors once: JSBSim's engine start re-initialises the rotors, which must keep
         # their speed across the initial-condition passes of a trim.
         self.fdm["propulsion/set-running"] = -1
@@ -155,8 +164,9 @@ class Simulation:
 
     def set_controls(self, aileron_deg: float, elevator_deg: float, rudder_deg: float, throttle: float) -> None:
         """Command the surfaces (degrees, the paper's sign conventions) and the throttle (0..1)."""
-        values = (aileron_deg / SURFACE_LIMITS_DEG["aileron"], elevator_deg / SURFACE_LIMITS_DEG["elevator"],
-                  rudder_deg / SURFACE_LIMITS_DEG["rudder"], throttle)
+        limits = self.surface_limits_deg
+        values = (aileron_deg / limits["aileron"], elevator_deg / limits["elevator"], rudder_deg / limits["rudder"],
+                  throttle)
         for name, value in zip(CONTROL_INPUTS, values):
             self.fdm[name] = value
 
@@ -315,10 +325,10 @@ class Simulation:
         if not (math.isfinite(altitude_m) and math.isfinite(airspeed_eas_mps)):
             raise TrimError(f"altitude {altitude_m} m and EAS {airspeed_eas_mps} m/s must be finite")
         if check_envelope:
-            lo, hi = ALTITUDE_RANGE_M
+            lo, hi = self.aircraft.altitude_range_m
             if not lo <= altitude_m <= hi:
                 raise TrimError(f"altitude {altitude_m:g} m is outside the flight envelope {lo:g}-{hi:g} m")
-            lo, hi = EAS_RANGE_MPS
+            lo, hi = self.aircraft.eas_range_mps
             if not lo <= airspeed_eas_mps <= hi:
                 raise TrimError(f"equivalent airspeed {airspeed_eas_mps:g} m/s is outside the flight envelope "
                                 f"{lo:g}-{hi:g} m/s")

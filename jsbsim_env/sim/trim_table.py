@@ -2,7 +2,9 @@
 
 Episode starts need a trimmed state in a few milliseconds; a full trim takes tens. The grid's
 cells are trimmed the first time a start falls in them and kept for the life of the process, one
-table per aircraft (JSBSim root and aircraft name).
+table per aircraft (JSBSim root and aircraft name). The grid spans the aircraft's envelope
+(``grid``): the paper's aircraft's is 0, 500 m, then every 1,000 m to 20 km, by 8 to 12 m/s EAS in
+steps of 1 m/s.
 """
 
 from __future__ import annotations
@@ -15,11 +17,23 @@ from typing import ClassVar
 
 import numpy as np
 
-import aircraft
+from aircraft import Aircraft, load_aircraft
 from jsbsim_env.sim.simulation import ALTITUDE_RANGE_M, EAS_RANGE_MPS, Simulation, TrimError
 
-GRID_ALTITUDES_M = np.array([0.0, 500.0, *np.arange(1000.0, 20001.0, 1000.0)])
-GRID_EAS_MPS = np.arange(EAS_RANGE_MPS[0], EAS_RANGE_MPS[1] + 0.01, 1.0)
+ALTITUDE_CELLS = 20  # the envelope's altitude range in 20 cells, the lowest split in two (the ground's effect)
+EAS_STEP_MPS = 1.0  # at most; the EAS range in equal cells
+
+
+def grid(altitude_range_m: tuple[float, float], eas_range_mps: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """The trim grid's altitudes (m) and EAS (m/s) over an envelope."""
+    (h0, h1), (v0, v1) = altitude_range_m, eas_range_mps
+    step = (h1 - h0) / ALTITUDE_CELLS
+    altitudes = np.array([h0, h0 + 0.5 * step, *(h0 + step * np.arange(1, ALTITUDE_CELLS + 1))])
+    speeds = np.linspace(v0, v1, max(2, math.ceil((v1 - v0) / EAS_STEP_MPS - 1e-9) + 1))
+    return altitudes, speeds
+
+
+GRID_ALTITUDES_M, GRID_EAS_MPS = grid(ALTITUDE_RANGE_M, EAS_RANGE_MPS)  # the paper's aircraft's
 
 
 @dataclass(frozen=True)
@@ -33,29 +47,32 @@ class TrimTable:
     """Bilinear interpolation of trimmed alpha, elevator and throttle (nominal coefficients).
 
     Args:
-        root: JSBSim root of the aircraft; the packaged one by default.
-        aircraft_name: aircraft folder under ``<root>/aircraft``.
+        aircraft: the aircraft (``aircraft.load_aircraft``); the paper's by default.
     """
 
     _shared: ClassVar[dict[tuple[Path, str], TrimTable]] = {}
     _lock = threading.Lock()
 
-    def __init__(self, root: Path | str | None = None, aircraft_name: str = aircraft.AIRCRAFT_NAME):
-        self.root = Path(root).resolve() if root is not None else aircraft.jsbsim_root()
-        self.aircraft_name = aircraft_name
+    def __init__(self, aircraft: Aircraft | Path | str | None = None):
+        self.aircraft = load_aircraft(aircraft)
+        self.root, self.aircraft_name = self.aircraft.root, self.aircraft.name
+        self.altitudes_m, self.eas_mps = grid(self.aircraft.altitude_range_m, self.aircraft.eas_range_mps)
         self._sim: Simulation | None = None
         self._cells: dict[tuple[int, int], np.ndarray] = {}
 
     @classmethod
-    def shared(cls, root: Path | str | None = None, aircraft_name: str = aircraft.AIRCRAFT_NAME) -> TrimTable:
+    def shared(cls, aircraft: Aircraft | Path | str | None = None) -> TrimTable:
         """One table per aircraft (JSBSim root and aircraft name) and process.
 
         The simulation rate is not part of the key: a trim is a steady state, the same at any rate
         to its tolerance (60 and 240 Hz differ by 1e-5 in throttle).
         """
-        table = cls(root, aircraft_name)
+        found = load_aircraft(aircraft)
         with cls._lock:
-            return cls._shared.setdefault((table.root, aircraft_name), table)
+            key = (found.root, found.name)
+            if key not in cls._shared:
+                cls._shared[key] = cls(found)
+            return cls._shared[key]
 
     @classmethod
     def forget_shared(cls) -> None:
@@ -69,27 +86,28 @@ class TrimTable:
         key = (i, j)
         if key not in self._cells:
             if self._sim is None:
-                self._sim = Simulation(self.root, aircraft_name=self.aircraft_name)
-            t = self._sim.trim(float(GRID_ALTITUDES_M[i]), float(GRID_EAS_MPS[j]))
+                self._sim = Simulation(self.aircraft)
+            t = self._sim.trim(float(self.altitudes_m[i]), float(self.eas_mps[j]))
             self._cells[key] = np.array([t.alpha_deg, t.elevator_deg, t.throttle])
         return self._cells[key]
 
     def fill(self) -> None:
         """Trim every grid point now (about 3 s) instead of on first use."""
-        for i in range(len(GRID_ALTITUDES_M)):
-            for j in range(len(GRID_EAS_MPS)):
+        for i in range(len(self.altitudes_m)):
+            for j in range(len(self.eas_mps)):
                 self._node(i, j)
 
     def lookup(self, altitude_m: float, airspeed_eas_mps: float) -> TrimPoint:
         """Trim at any point of the envelope (clipped to it); ``TrimError`` for a point that is not finite."""
         if not (math.isfinite(altitude_m) and math.isfinite(airspeed_eas_mps)):
             raise TrimError(f"no trim at altitude {altitude_m} m, EAS {airspeed_eas_mps} m/s: both must be finite")
-        h = float(np.clip(altitude_m, *ALTITUDE_RANGE_M))
-        v = float(np.clip(airspeed_eas_mps, *EAS_RANGE_MPS))
-        i = int(np.clip(np.searchsorted(GRID_ALTITUDES_M, h) - 1, 0, len(GRID_ALTITUDES_M) - 2))
-        j = int(np.clip(np.searchsorted(GRID_EAS_MPS, v) - 1, 0, len(GRID_EAS_MPS) - 2))
-        fh = (h - GRID_ALTITUDES_M[i]) / (GRID_ALTITUDES_M[i + 1] - GRID_ALTITUDES_M[i])
-        fv = (v - GRID_EAS_MPS[j]) / (GRID_EAS_MPS[j + 1] - GRID_EAS_MPS[j])
+        hs, vs = self.altitudes_m, self.eas_mps
+        h = float(np.clip(altitude_m, hs[0], hs[-1]))
+        v = float(np.clip(airspeed_eas_mps, vs[0], vs[-1]))
+        i = int(np.clip(np.searchsorted(hs, h) - 1, 0, len(hs) - 2))
+        j = int(np.clip(np.searchsorted(vs, v) - 1, 0, len(vs) - 2))
+        fh = (h - hs[i]) / (hs[i + 1] - hs[i])
+        fv = (v - vs[j]) / (vs[j + 1] - vs[j])
         x = ((1 - fh) * (1 - fv) * self._node(i, j) + fh * (1 - fv) * self._node(i + 1, j)
              + (1 - fh) * fv * self._node(i, j + 1) + fh * fv * self._node(i + 1, j + 1))
         return TrimPoint(*map(float, x))

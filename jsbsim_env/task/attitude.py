@@ -5,7 +5,7 @@
 | observation (20) | the paper's Eqs. 18-19 with the last action: ``jsbsim_env.control.observation`` (its table gives every index, unit and scale) |
 | action (4) | in [-1, 1]: aileron +-30 deg, elevator +-30 deg, rudder +-20 deg, throttle 0..1 (the paper's Table 2) |
 | reward | the paper's Eq. 22: 1 - p_roll - p_pitch - p_V - p_beta, errors in deg and m/s; each term in ``info`` |
-| goals | drawn in roll +-5 deg, pitch +-10 deg, V_eas 8..12 m/s; each channel steps to a new draw after a hold drawn in ``goal_hold_s`` |
+| goals | drawn in roll +-5 deg, pitch +-10 deg, V_eas over the aircraft's envelope (the paper's: 8..12 m/s); each channel steps to a new draw after a hold drawn in ``goal_hold_s`` |
 | start | altitude and EAS drawn (``CoreConfig``), nominal trim, then perturbed |
 | end | terminated on ground strike, non-finite state or leaving ``Envelope`` (reason in ``info``); truncated after ``max_steps`` interactions |
 
@@ -34,6 +34,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from aircraft import Aircraft
+from jsbsim_env.control.gain_files import gain_file
 from jsbsim_env.control.integrals import ErrorIntegrals, check_error_integrals
 from jsbsim_env.control.observation import (
     ACTION_OFFSET,
@@ -63,6 +65,13 @@ from jsbsim_env.sim.model_check import SCALED_TERMS
 
 GOAL_LOW = np.array([math.radians(-5.0), math.radians(-10.0), 8.0])
 GOAL_HIGH = np.array([math.radians(5.0), math.radians(10.0), 12.0])
+
+
+def goal_range(aircraft: Aircraft) -> tuple[np.ndarray, np.ndarray]:
+    """The goals drawn for ``aircraft``: roll and pitch as ``GOAL_LOW``/``GOAL_HIGH`` (rad), EAS over
+    its envelope (m/s; the paper's aircraft's: 8 to 12 m/s, ``GOAL_LOW``/``GOAL_HIGH`` themselves)."""
+    low, high = aircraft.eas_range_mps
+    return np.array([GOAL_LOW[0], GOAL_LOW[1], low]), np.array([GOAL_HIGH[0], GOAL_HIGH[1], high])
 _DEG = math.degrees(1.0)
 
 
@@ -195,10 +204,12 @@ class AttitudeTaskBatch:
     short lists: for vectors of 4 to 16 numbers that is several times faster than numpy calls.
     """
 
-    def __init__(self, num_envs: int, config: TaskConfig | None = None, root=None):
+    def __init__(self, num_envs: int, config: TaskConfig | None = None):
         self.config = config or TaskConfig()
         self.num_envs = n = check_num_envs(num_envs)
-        self.cores = [FlightCore(self.config.core, root) for _ in range(n)]
+        self.cores = [FlightCore(self.config.core) for _ in range(n)]
+        self.aircraft = self.cores[0].aircraft
+        self.goal_low, self.goal_high = goal_range(self.aircraft)
         self.states: list[list[float]] = [[0.0] * N_STATE for _ in range(n)]  # true states
         self.noise: list[list[float]] = [[0.0] * N_STATE for _ in range(n)]
         self.goals = np.zeros((n, 3))
@@ -211,7 +222,9 @@ class AttitudeTaskBatch:
         self.last_actions: list[list[float]] = [[0.0] * ACTION_SIZE for _ in range(n)]
         self._sensor_noise = self.config.core.sensor_noise
         trim, self._external_share = self.config.surface_trim_gain, self.config.external_throttle
-        schedule = GainSchedule() if trim > 0.0 or self._external_share > 0.0 else None  # read once for all
+        # The aircraft's PID gains, read once for all.
+        schedule = (GainSchedule(gain_file("pid", self.aircraft)) if trim > 0.0 or self._external_share > 0.0
+                    else None)
         self._trims = [SurfaceTrim(trim, schedule) for _ in range(n)] if trim > 0.0 else None
         tc = self.config.goal_trim_time_constant_s
         self._goal_trims = [GoalTrim(tc) for _ in range(n)] if tc > 0.0 else None
@@ -242,7 +255,7 @@ class AttitudeTaskBatch:
         self.interval_s[i] = core.setup.control_interval_s
         # Goals draw from their own stream of the episode's seed.
         self._goal_rngs[i] = grng = np.random.default_rng(core.rng.integers(2**63))
-        self.goals[i] = grng.uniform(GOAL_LOW, GOAL_HIGH)
+        self.goals[i] = grng.uniform(self.goal_low, self.goal_high)
         self._goal_lists[i] = self.goals[i].tolist()
         self.next_goal_change_s[i] = grng.uniform(*self.config.goal_hold_s, size=3)
         self._next_goal_change_min_s[i] = float(self.next_goal_change_s[i].min())
@@ -338,7 +351,7 @@ class AttitudeTaskBatch:
         """Step-style goals: each channel jumps to a new draw once its hold has run out."""
         rng = self._goal_rngs[i]
         for j in np.flatnonzero(time_s >= self.next_goal_change_s[i]):
-            self.goals[i, j] = rng.uniform(GOAL_LOW[j], GOAL_HIGH[j])
+            self.goals[i, j] = rng.uniform(self.goal_low[j], self.goal_high[j])
             self.next_goal_change_s[i, j] = time_s + rng.uniform(*self.config.goal_hold_s)
         self._goal_lists[i] = self.goals[i].tolist()
         self._next_goal_change_min_s[i] = float(self.next_goal_change_s[i].min())
@@ -407,8 +420,8 @@ class AttitudeTaskBatch:
 class AttitudeTask:
     """One aircraft flying the attitude-tracking task, with gymnasium-style returns."""
 
-    def __init__(self, config: TaskConfig | None = None, root=None):
-        self.batch = AttitudeTaskBatch(1, config, root)
+    def __init__(self, config: TaskConfig | None = None):
+        self.batch = AttitudeTaskBatch(1, config)
         self.config = self.batch.config
         self.core = self.batch.cores[0]
 

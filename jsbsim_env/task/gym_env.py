@@ -13,11 +13,15 @@ gymnasium does not advise every user of the default to "upgrade" to one.
 One aircraft, observation (20,) float32 (``jsbsim_env.control.observation`` gives every index,
 unit and scale) and action (4,) float32 in [-1, 1] as described in ``jsbsim_env.task.attitude``;
 ``info`` carries every reward term, the termination reason and the true state. Pass
-``config=TaskConfig(...)`` to ``gym.make`` to change the task.
+``config=TaskConfig(...)`` to ``gym.make`` to change the task, and ``aircraft=`` (a packaged
+aircraft's name or a built aircraft's folder, ``aircraft.load_aircraft``) to fly the task on
+another aircraft: ``gym.make("SolarUAVAttitude-v1", aircraft="runs/small")``.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
+from pathlib import Path
 from typing import ClassVar
 
 import gymnasium as gym
@@ -32,7 +36,10 @@ class SolarUAVAttitudeGymEnv(gym.Env):
 
     metadata: ClassVar[dict] = {"render_modes": []}
 
-    def __init__(self, config: TaskConfig | None = None):
+    def __init__(self, config: TaskConfig | None = None, aircraft: str | Path | None = None):
+        config = config or TaskConfig()
+        if aircraft is not None:
+            config = replace(config, core=replace(config.core, aircraft=str(aircraft)))
         self.task = AttitudeTask(config)
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, shape=(self.task.config.observation_size,),
                                                 dtype=np.float32)

@@ -7,6 +7,8 @@ one step per control interval); ``make_env`` adds the training transforms: the o
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import torch
 from tensordict import TensorDict, TensorDictBase
@@ -134,12 +136,16 @@ class SolarUAVAttitudeEnv(EnvBase):
 
 
 def make_env(num_envs: int = 8, config: TaskConfig | None = None, seed: int = 0,
-             window: int = OBSERVATION_WINDOW, privileged: bool = False) -> TransformedEnv:
+             window: int = OBSERVATION_WINDOW, privileged: bool = False, aircraft=None) -> TransformedEnv:
     """The training environment: the 8-step observation window (``observation`` becomes
     (num_envs, window, 20), oldest first), a step counter and the episode reward sum. ``num_envs``
     and ``window`` must be whole numbers >= 1 (the window at most 64, as a policy file's);
-    ``privileged`` adds the ``privileged`` entry (the present step's, no window)."""
+    ``privileged`` adds the ``privileged`` entry (the present step's, no window); ``aircraft``
+    (a name or a built aircraft's folder) flies the task on that aircraft instead of ``config``'s."""
     num_envs = check_num_envs(num_envs)
+    if aircraft is not None:
+        config = config or TaskConfig()
+        config = replace(config, core=replace(config.core, aircraft=str(aircraft)))
     try:
         StackSettings(window_steps=window)
     except ValueError:

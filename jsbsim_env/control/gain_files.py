@@ -1,0 +1,63 @@
+"""Where each aircraft's classical controllers keep their gain tables, and where they are designed.
+
+The paper's aircraft's tables ship beside this module (``scripts/tune_pid.py``, ``tune_lqi.py`` and
+``tune_classical.py`` write them); an aircraft built from a description keeps its own in its
+folder, written by ``scripts/build_aircraft.py``. Each table records the EAS it was designed at
+(``design_eas_mps``), which the controllers' dynamic-pressure scaling reads.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from aircraft import AIRCRAFT_NAME, Aircraft, load_aircraft
+
+PACKAGED_DIR = Path(__file__).parent  # the paper's aircraft's tables, kept in git
+FILES = {"pid": "pid_gains.json", "lqi": "lqi_gains.json", "pid_tuned": "pid_tuned_gains.json",
+         "lqi_tuned": "lqi_tuned_gains.json"}
+# The paper's design altitudes (500 m to 20 km) as fractions of an envelope's altitude range above
+# its floor: dense low down, where the dynamic pressure's effect on the true airspeed changes fastest.
+DESIGN_ALTITUDE_FRACTIONS = (0.025, 0.05, 0.1, 0.25, 0.5, 0.75, 1.0)
+
+
+class GainsMissing(FileNotFoundError):
+    """A controller asked for on an aircraft whose gain table has not been written."""
+
+
+def is_paper_aircraft(aircraft: Aircraft) -> bool:
+    return aircraft.packaged and aircraft.name == AIRCRAFT_NAME
+
+
+def gain_file_path(kind: str, aircraft: Aircraft | str | Path | None = None) -> Path:
+    """Where the ``kind`` (``FILES``) table of ``aircraft`` (the paper's by default) is kept, whether
+    or not it has been written."""
+    if kind not in FILES:
+        raise ValueError(f"gain table kind must be one of {', '.join(FILES)}, got {kind!r}")
+    found = load_aircraft(aircraft)
+    return (PACKAGED_DIR if is_paper_aircraft(found) else found.folder) / FILES[kind]
+
+
+def gain_file(kind: str, aircraft: Aircraft | str | Path | None = None) -> Path:
+    """``gain_file_path``, refused (``GainsMissing``, one line saying how to write it) where the
+    table is not there."""
+    path = gain_file_path(kind, aircraft)
+    if not path.is_file():
+        found = load_aircraft(aircraft)
+        if kind.endswith("_tuned"):
+            how = (f"`python scripts/tune_classical.py --controller {kind.removesuffix('_tuned')}"
+                   + ("" if is_paper_aircraft(found) else f" --aircraft {found.root}") + "`")
+        else:
+            how = "`python scripts/build_aircraft.py DESCRIPTION --out DIR` (it designs the PID and the LQI)"
+        raise GainsMissing(f"{kind}: {found.describe()} has no gain table {path}: write it with {how}")
+    return path
+
+
+def design_altitudes_m(aircraft: Aircraft) -> tuple[float, ...]:
+    """Where the classical controllers are designed: ``DESIGN_ALTITUDE_FRACTIONS`` of the envelope
+    (the paper's aircraft: 500, 1,000, 2,000, 5,000, 10,000, 15,000 and 20,000 m)."""
+    low, high = aircraft.altitude_range_m
+    return tuple(low + f * (high - low) for f in DESIGN_ALTITUDE_FRACTIONS)
+
+
+__all__ = ["DESIGN_ALTITUDE_FRACTIONS", "FILES", "PACKAGED_DIR", "GainsMissing", "design_altitudes_m", "gain_file",
+           "gain_file_path", "is_paper_aircraft"]

@@ -1,0 +1,140 @@
+"""Another aircraft than the paper's, from its description to the commands: the small example
+(``aircraft/small_solar_uav.toml``) built once for the module (about 35 s: analysis, JSBSim files,
+the classical controllers' design, the survey), then flown by the environments, the classical
+controllers and, refused, by a policy trained on the paper's aircraft."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import aircraft
+from aircraft.design import aero_data
+from aircraft.design.description import PAPER_AIRCRAFT, load_description
+
+SMALL_AIRCRAFT = PAPER_AIRCRAFT.with_name("small_solar_uav.toml")
+
+
+@pytest.fixture(scope="module")
+def small(tmp_path_factory, load_script):
+    """The JSBSim root the small example is built into, and what the build printed."""
+    pytest.importorskip("aerosandbox")
+    root = tmp_path_factory.mktemp("small")
+    assert load_script("build_aircraft").main([str(SMALL_AIRCRAFT), "--out", str(root)]) == 0
+    return root
+
+
+def test_the_small_example_builds_loads_in_jsbsim_and_trims_across_its_envelope(small):
+    from jsbsim_env.sim.simulation import Simulation
+
+    report = (small / "build_report.md").read_text()
+    assert report.startswith("# small_solar_uav: build report") and "static margin 0.10 MAC" in report
+    # The survey: a trim at the reference EAS at each altitude, and every mode named there.
+    assert report.count("| 12.0 | 5.") == 3 and "short_period" in report and "dutch_roll" in report
+    folder = small / "aircraft" / "small_solar_uav"
+    assert (folder / "small_solar_uav.xml").is_file() and (small / "aero_data.json").is_file()
+    assert aircraft.model_fingerprint(folder=folder) != aircraft.model_fingerprint()
+    sim = Simulation(small)
+    assert sim.aircraft.name == "small_solar_uav" and sim.aircraft.fingerprint == aircraft.model_fingerprint(folder=folder)
+    assert sim.inertia_kg_m2().ixx_kg_m2 == pytest.approx(15.0, rel=1e-3)
+    geometry = load_description(SMALL_AIRCRAFT)
+    low, high = geometry.envelope.altitude_range_m
+    for altitude_m in (low, high):
+        for eas_mps in (*geometry.envelope.eas_range_mps, geometry.envelope.reference_eas_mps):
+            trim = sim.trim(altitude_m, eas_mps)
+            assert 0.0 < trim.throttle < 1.0 and -10.0 < trim.alpha_deg < 14.0, (altitude_m, eas_mps)
+    cruise = sim.trim(low, geometry.envelope.reference_eas_mps)
+    # The trim's angle of attack is the analysis's cruise angle of attack.
+    cruise_alpha = aero_data.load(small / "aero_data.json")["stability"]["cruise_alpha_deg"]
+    assert cruise.alpha_deg == pytest.approx(cruise_alpha, abs=0.5)
+    # Its own envelope: the paper's 10 km is outside it.
+    with pytest.raises(Exception, match="outside the flight envelope 0-3000 m"):
+        sim.trim(10_000.0, 12.0)
+
+
+def test_the_aircraft_is_named_by_its_root_or_its_folder_and_a_description_is_not_a_built_aircraft(small, tmp_path):
+    by_root = aircraft.load_aircraft(small)
+    assert aircraft.load_aircraft(str(small / "aircraft" / "small_solar_uav")) == by_root
+    assert by_root.altitude_range_m == (0.0, 3000.0) and by_root.eas_range_mps == (10.0, 15.0)
+    assert by_root.surface_limits_deg == (25.0, 25.0, 25.0) and not by_root.packaged
+    with pytest.raises(aircraft.AircraftError, match="is a description, not a built aircraft: build it with"):
+        aircraft.load_aircraft(SMALL_AIRCRAFT)
+    with pytest.raises(aircraft.AircraftError, match="holds no built aircraft"):
+        aircraft.load_aircraft(tmp_path)
+    with pytest.raises(aircraft.AircraftError, match="neither a packaged aircraft .*solar_uav.* nor a path"):
+        aircraft.load_aircraft("small_uav")
+
+
+def test_the_environments_fly_the_second_aircraft_in_its_own_envelope(small):
+    import gymnasium as gym
+
+    import jsbsim_env  # noqa: F401 - registers the environments
+    from jsbsim_env.task.torchrl_env import make_env
+
+    env = gym.make("SolarUAVAttitude-v1", aircraft=small)
+    task = env.unwrapped.task
+    assert task.core.aircraft.name == "small_solar_uav"
+    for seed in range(4):
+        obs, _ = env.reset(seed=seed)
+        setup = task.core.setup
+        assert 75.0 <= setup.altitude_m <= 3000.0 and 10.0 <= setup.airspeed_eas_mps <= 15.0
+        assert 10.0 <= task.batch.goals[0, 2] <= 15.0  # the EAS goal: its envelope, not the paper's 8-12 m/s
+        for _ in range(20):
+            obs, _, terminated, _, _ = env.step(np.zeros(4, dtype=np.float32))
+        assert np.isfinite(obs).all() and not terminated
+    # The start the paper's aircraft makes at 10 km is refused, naming this aircraft's envelope.
+    with pytest.raises(ValueError, match="small_solar_uav's flight envelope is 0..3000 m"):
+        env.reset(options={"altitude_m": 10_000.0})
+    td = make_env(2, aircraft=small).rollout(5)
+    assert td["next", "observation"].shape == (2, 5, 8, 20)
+
+
+def test_the_commands_reach_the_surfaces_as_the_aircraft_limits_them(small):
+    from jsbsim_env.sim.core import CoreConfig, FlightCore
+
+    core = FlightCore(CoreConfig.ideal(aircraft=str(small), servo_rate_limit_degps=1000.0))
+    core.reset(0, altitude_m=1000.0, airspeed_eas_mps=12.0)
+    for command, expected in (([10.0, 0.0, 0.0, 0.6], 10.0), ([30.0, 0.0, 0.0, 0.6], 25.0)):
+        for _ in range(25):
+            core.step(np.array(command))
+        assert core.sim["fcs/aileron-pos-deg"] == pytest.approx(expected, abs=0.05)
+
+
+def test_its_classical_controllers_are_designed_for_it_and_fly_it(small):
+    from jsbsim_env.control.factory import make_controller
+    from jsbsim_env.control.gain_files import design_altitudes_m
+    from jsbsim_env.sim.core import CoreConfig
+    from jsbsim_env.task.attitude import AttitudeTaskBatch, TaskConfig
+    from training.evaluation.suite import fly
+
+    found = aircraft.load_aircraft(small)
+    for kind in ("pid", "lqi"):
+        table = json.loads((found.folder / f"{kind}_gains.json").read_text())
+        assert table["design_eas_mps"] == 12.0
+        assert [p["altitude_m"] for p in table["points"]] == pytest.approx(design_altitudes_m(found))
+        controller = make_controller(kind, aircraft=small)
+        batch = AttitudeTaskBatch(1, TaskConfig(core=CoreConfig(aircraft=str(small), max_steps=400)))
+        goal = np.array([np.radians(3.0), 0.0, 12.0])
+        rec, end = fly(controller, batch, seed=1, steps=400, goal_fn=lambda t, g=goal: g, altitude_m=1500.0,
+                       airspeed_eas_mps=12.0)
+        roll_deg = np.degrees(rec.arrays()["true_state"][200:, 1])
+        assert not end["terminated"] and abs(roll_deg.mean() - 3.0) < 0.5, (kind, end, roll_deg.mean())
+    with pytest.raises(FileNotFoundError, match="small_solar_uav .* has no gain table .*tune_classical.py"):
+        make_controller("pid_tuned", aircraft=small)
+
+
+def test_a_policy_is_refused_on_an_aircraft_it_was_not_trained_on_unless_asked(small):
+    from jsbsim_env.control.policy import PolicyRuntime, WrongAircraftError, check_aircraft
+
+    with pytest.raises(WrongAircraftError, match=r"trained on solar_uav \(model e093eae216c2\) and would fly "
+                                                 r"small_solar_uav \(.*\) \(model [0-9a-f]{12}\)"):
+        PolicyRuntime(aircraft=small)
+    runtime = PolicyRuntime(aircraft=small, transfer=True, backend="torch")
+    assert runtime.aircraft.name == "small_solar_uav"
+    found, paper = aircraft.load_aircraft(small), aircraft.load_aircraft()
+    trained_here = {"aircraft": found.name, "aircraft_model": found.fingerprint}
+    check_aircraft(trained_here, SMALL_AIRCRAFT, found)  # its own aircraft: flies
+    with pytest.raises(WrongAircraftError, match="trained on small_solar_uav .* would fly solar_uav"):
+        check_aircraft(trained_here, SMALL_AIRCRAFT, paper)
