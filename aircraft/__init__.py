@@ -27,6 +27,7 @@ AIRCRAFT_NAME = "solar_uav"
 ENVELOPE_FILE = "envelope.json"
 """In every aircraft folder: where the aircraft flies (``Aircraft``), written by its build."""
 SURFACES = ("aileron", "elevator", "rudder")
+PAPER_ALTITUDE_RANGE_M = (0.0, 20000.0)  # the paper's aircraft's envelope, where its experiments fly
 
 
 def jsbsim_root() -> Path:
@@ -87,6 +88,16 @@ class Aircraft:
         (the paper's aircraft: 1, 10 and 20 km)."""
         low, high = self.altitude_range_m
         return low + 0.05 * (high - low), 0.5 * (low + high), high
+
+    def altitude_like_m(self, paper_altitude_m: float) -> float:
+        """The altitude at the fraction of this aircraft's altitude range that ``paper_altitude_m`` is
+        of the paper's 0-20 km: where this aircraft flies an experiment the paper's flies at
+        ``paper_altitude_m`` (1, 10, 20 km: 5 % up, the middle, the ceiling); itself on an
+        aircraft with the paper's range."""
+        (p0, p1), (a0, a1) = PAPER_ALTITUDE_RANGE_M, self.altitude_range_m
+        if (a0, a1) == (p0, p1):
+            return paper_altitude_m
+        return a0 + (paper_altitude_m - p0) / (p1 - p0) * (a1 - a0)
 
     def describe(self) -> str:
         """One line: the name, and the folder for an aircraft that does not ship with the package."""

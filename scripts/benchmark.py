@@ -30,7 +30,9 @@ import time
 from pathlib import Path
 
 # None of these loads torch, ray or onnxruntime: those load when flying, after the arguments are parsed.
+from aircraft import AIRCRAFT_NAME, load_aircraft
 from jsbsim_env.control.factory import CONTROLLER_NAMES
+from jsbsim_env.control.gain_files import GainsMissing, gain_file
 from jsbsim_env.task.metrics import json_ready
 from training.evaluation import selection
 from training.evaluation.benchmark import (
@@ -64,6 +66,11 @@ def build_parser() -> argparse.ArgumentParser:
     p = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
     p.add_argument("--controllers", default=",".join(CONTROLLER_NAMES),
                    help=f"comma-separated, any of: {', '.join(CONTROLLER_NAMES)}")
+    p.add_argument("--aircraft", default=AIRCRAFT_NAME,
+                   help="the aircraft flown: a packaged aircraft's name or a folder built by scripts/build_aircraft.py "
+                        "--out (default: %(default)s); the families fly at the same fractions of its envelope")
+    p.add_argument("--transfer", action="store_true",
+                   help="fly policies on an aircraft other than the one they were trained on (a transfer experiment)")
     p.add_argument("--policy", default=None, help="policy file (.pt); the shipped policy when omitted")
     p.add_argument("--compare", nargs="+", type=Path, default=(), metavar="POLICY",
                    help="more policy files, each flown as a controller of its own (named by its run folder, or its "
@@ -110,11 +117,15 @@ def main(argv=None) -> int:
     try:
         controllers = name_list(args.controllers, CONTROLLER_NAMES, "--controllers")
         families = name_list(args.families, tuple(FAMILIES), "--families")
+        flown_aircraft = load_aircraft(args.aircraft)
+        for name in controllers:  # a classical controller's gain table, before any flight
+            if name != "policy":
+                gain_file(name, flown_aircraft)
         claim_output_folder(args.out, RESULTS, args.overwrite)
     except OutputFolderError as err:
         print(f"benchmark: --out: {err}", file=sys.stderr)
         return 2
-    except ValueError as err:
+    except (ValueError, GainsMissing) as err:
         print(f"benchmark: {err}", file=sys.stderr)
         return 2
     try:
@@ -124,12 +135,15 @@ def main(argv=None) -> int:
         return 2
     alone = []  # the policies --network-alone flies without their classical stages
     if "policy" in controllers or compared:  # read and checked once here, not in every job
-        from jsbsim_env.control.policy import PolicyFileError, load_policy, shipped_policy_path
+        from jsbsim_env.control.policy import PolicyFileError, check_aircraft, load_policy, shipped_policy_path
 
         flown = ({"policy": args.policy or shipped_policy_path()} if "policy" in controllers else {}) | compared
         try:
             for label, path in flown.items():
-                stack = load_policy(path)[1]["stack"]
+                meta = load_policy(path)[1]
+                if not args.transfer:
+                    check_aircraft(meta, Path(path), flown_aircraft)
+                stack = meta["stack"]
                 if stack.network_alone() != stack:
                     alone.append(label)
         except PolicyFileError as err:
@@ -142,7 +156,7 @@ def main(argv=None) -> int:
     from tqdm import tqdm
 
     jobs = jobs_for(families, controllers, args.episodes, args.quick, args.split, compared,
-                    alone if args.network_alone else (), args.policy)
+                    alone if args.network_alone else (), args.policy, args.aircraft, args.transfer)
     controllers = flown_labels(jobs)
     bar = tqdm(total=len(jobs), desc=f"benchmark ({args.backend})", unit="flight", file=sys.stderr,
                disable=args.no_progress or args.json)
@@ -168,7 +182,7 @@ def main(argv=None) -> int:
     summary = summarise(rows, controllers, args.method)
     record = {"command": command, "backend": args.backend, "cores": info["cpus"], "wall_s": wall_s,
               "flights": len(rows), "controllers": controllers, "families": families, "episodes": args.episodes,
-              "split": args.split, "seeds": [SPLITS[args.split].start, SPLITS[args.split].start + args.episodes - 1],
+              "split": args.split, "aircraft": flown_aircraft.name, "aircraft_model": flown_aircraft.fingerprint, "seeds": [SPLITS[args.split].start, SPLITS[args.split].start + args.episodes - 1],
               "method": args.method,
               "quick": args.quick, "plan": plan_dict(args.quick), "summary": summary,
               "selection": [{"controller": c, **s} for c, s in selection.rank(summary, *selection.sides(controllers))]}

@@ -36,16 +36,23 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--workers", type=positive_int, default=1, help="processes flying candidates at once")
     parser.add_argument("--quick", action="store_true", help="30 s flights, for checks (not a tuning to use)")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing --out file")
+    parser.add_argument("--aircraft", default=None,
+                        help="the aircraft tuned: a packaged aircraft's name or a folder built by "
+                             "scripts/build_aircraft.py --out, from its designed tables (default: the paper's; "
+                             "--out then defaults to its folder's <controller>_tuned_gains.json)")
     args = parser.parse_args(argv)
     if args.budget < 2:
         parser.error(f"--budget must be at least 2 (one CMA-ES generation), got {args.budget}")
 
-    from jsbsim_env.control.factory import TUNED_GAIN_FILES
-    from jsbsim_env.control.lqi import GAINS_PATH as LQI_GAINS_PATH
-    from jsbsim_env.control.pid import GAINS_PATH as PID_GAINS_PATH
+    from aircraft import AircraftError
+    from jsbsim_env.control import gain_files
 
-    out = args.out or TUNED_GAIN_FILES[f"{args.controller}_tuned"]
-    if out.resolve() in (PID_GAINS_PATH.resolve(), LQI_GAINS_PATH.resolve()):
+    try:
+        designed = [gain_files.gain_file(kind, args.aircraft) for kind in ("pid", "lqi")]
+    except (AircraftError, gain_files.GainsMissing) as err:
+        parser.exit(2, f"tune_classical: --aircraft: {err}\n")
+    out = args.out or gain_files.gain_file_path(f"{args.controller}_tuned", args.aircraft)
+    if out.resolve() in {path.resolve() for path in designed}:
         parser.error(f"--out {out} is a shipped gain table, which tuning never replaces: give another file")
     try:  # before the tuning, which takes a while
         claim_output_file(out, args.overwrite)
@@ -54,7 +61,7 @@ def main(argv: list[str] | None = None) -> int:
     from training.evaluation.classical_tuning import tune, tuning_flights, write_tuned_table
 
     try:  # the flights' seeds, against the frozen test set, before anything else
-        tuning_flights(args.quick)
+        tuning_flights(args.quick, args.aircraft)
     except ValueError as err:
         print(err, file=sys.stderr)
         return 2
@@ -63,7 +70,7 @@ def main(argv: list[str] | None = None) -> int:
     except ImportError:
         parser.exit(2, "tune_classical: needs the cma package: pip install '.[tune]'\n")
     table = tune(args.controller, args.budget, seed=args.seed, workers=args.workers, quick=args.quick,
-                 progress=lambda text: print(text, flush=True))
+                 progress=lambda text: print(text, flush=True), aircraft=args.aircraft)
     write_tuned_table(table, out)
     record = table["tuning"]
     budget = record["budget"]

@@ -27,6 +27,11 @@ not having flown the condition. The
 One job is one controller x one realisation x one condition of one family; it depends only on
 them (each job starts from an empty trim table), so the local processes and Ray give identical
 numbers (``training.evaluation.sweep.run_local`` and ``run_ray``).
+
+Another aircraft (``BenchJob.aircraft``) flies the same families where its own envelope puts them
+(``family_conditions``): each altitude at the same fraction of its altitude range as on the
+paper's 0-20 km (``Aircraft.altitude_like_m``; 1, 10, 20 km: 5 %, half, the ceiling), at its
+reference EAS instead of 10 m/s.
 """
 
 from __future__ import annotations
@@ -37,6 +42,7 @@ from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
+from aircraft import AIRCRAFT_NAME, Aircraft, load_aircraft
 from jsbsim_env.missions import MissionResult, RouteConfig
 from jsbsim_env.sim import disturbances as dist
 from jsbsim_env.sim.core import CoreConfig
@@ -108,6 +114,17 @@ FAMILIES: dict[str, Family] = {f.name: f for f in (
 )}
 
 
+PAPER_ROUTE_ALTITUDE_M = 10_000.0  # the table9 and robustness families' altitude on the paper's aircraft
+
+
+def family_conditions(family: str, aircraft: Aircraft | str | None = None) -> tuple[dict, ...]:
+    """``FAMILIES[family].conditions`` as ``aircraft`` (the paper's by default) flies them: each
+    altitude moved into its envelope (``Aircraft.altitude_like_m``)."""
+    found = load_aircraft(aircraft)
+    return tuple({k: found.altitude_like_m(v) if k == "altitude_m" else v for k, v in c.items()}
+                 for c in FAMILIES[family].conditions)
+
+
 def condition_label(condition: dict) -> str:
     if "axis" in condition:
         return f"{condition['axis']}={condition['value']:g} {AXIS_UNITS[condition['axis']]}"
@@ -143,6 +160,8 @@ class BenchJob:
     policy_path: str | None = None  # a "policy" flown from this file instead of the run's --policy
     label: str | None = None  # its name in the rows and tables (the controller's name when None)
     network_alone: bool = False  # a policy flown without its classical stages (``PolicyRuntime``)
+    aircraft: str = AIRCRAFT_NAME  # the aircraft flown (``aircraft.load_aircraft``)
+    transfer: bool = False  # fly a policy on an aircraft it was not trained on (a transfer experiment)
 
 
 def seed_of(realisation: int, split: str = "test") -> int:
@@ -154,17 +173,21 @@ def route_config(job: BenchJob, plan: BenchmarkPlan) -> RouteConfig:
     c, seed = job.condition, seed_of(job.realisation, job.split)
     end = (plan.calm_window_s if job.family == "calm" else plan.leg_window_s)[1]
     leg = plan.straight_leg_north_m
+    flown = load_aircraft(job.aircraft)
+    on = {"aircraft": job.aircraft, "eas_mps": flown.reference_eas_mps}  # the paper's aircraft's: 10 m/s
+    middle_m = flown.altitude_like_m(PAPER_ROUTE_ALTITUDE_M)
     if job.family in ("turbulence", "calm"):
         return RouteConfig(altitude_m=c["altitude_m"], leg_north_m=leg, duration_s=end, seed=seed,
-                           turbulence_legs=(0,) if job.family == "turbulence" else ())
+                           turbulence_legs=(0,) if job.family == "turbulence" else (), **on)
     if job.family == "table9":
-        return RouteConfig(altitude_m=10_000.0, leg_north_m=leg, duration_s=end, seed=seed, parameters=c["parameters"])
+        return RouteConfig(altitude_m=middle_m, leg_north_m=leg, duration_s=end, seed=seed, parameters=c["parameters"],
+                           **on)
     if job.family == "robustness":
         parameters = dist.RANDOMISED if c["axis"] == "parameter_strength" else "nominal"
-        return StressedRoute(altitude_m=10_000.0, leg_north_m=leg, duration_s=end, seed=seed, turbulence_legs=(0,),
-                             parameters=parameters, stress=((c["axis"], float(c["value"])),))
+        return StressedRoute(altitude_m=middle_m, leg_north_m=leg, duration_s=end, seed=seed, turbulence_legs=(0,),
+                             parameters=parameters, stress=((c["axis"], float(c["value"])),), **on)
     if job.family == "corner":
-        base = RouteConfig(altitude_m=c["altitude_m"], seed=seed)
+        base = RouteConfig(altitude_m=c["altitude_m"], seed=seed, **on)
         if plan.quick_square_m:
             side = plan.quick_square_m
             base = replace(base, waypoints_ne_m=((0.0, 0.0), (side, 0.0), (side, side), (0.0, side)))
@@ -241,7 +264,8 @@ def _fly_step(controller, job: BenchJob, plan: BenchmarkPlan) -> tuple[dict, str
 
     interval = 0.04
     end_s = plan.step_start_s + plan.step_window_s
-    core = CoreConfig(control_interval_s=(interval, interval), delay_s=(interval, interval), sensor_noise=True,
+    eas_mps = load_aircraft(job.aircraft).reference_eas_mps  # the paper's aircraft's: 10 m/s
+    core = CoreConfig(aircraft=job.aircraft, control_interval_s=(interval, interval), delay_s=(interval, interval), sensor_noise=True,
                       noise_reversion_per_s=1.0, parameters="nominal", turbulence=False, perturb_attitude_deg=1.0,
                       perturb_rate_degps=0.5, perturb_eas_mps=0.3, max_steps=math.ceil(end_s / interval) + 2)
     batch = AttitudeTaskBatch(1, TaskConfig(core=core))
@@ -249,13 +273,13 @@ def _fly_step(controller, job: BenchJob, plan: BenchmarkPlan) -> tuple[dict, str
     step = math.radians(plan.step_deg)
 
     def goal(time_s: float) -> np.ndarray:
-        g = np.array([0.0, 0.0, 10.0])
+        g = np.array([0.0, 0.0, eas_mps])
         if time_s >= plan.step_start_s:
             g[channel] = step
         return g
 
     rec, end = fly(controller, batch, seed=seed_of(job.realisation, job.split), steps=math.ceil(end_s / interval), goal_fn=goal,
-                   altitude_m=job.condition["altitude_m"], airspeed_eas_mps=10.0)
+                   altitude_m=job.condition["altitude_m"], airspeed_eas_mps=eas_mps)
     a = rec.arrays()
     if end["terminated"]:
         return dict.fromkeys(STEP_METRICS, math.nan), end["reason"] or "ended early"
@@ -276,7 +300,8 @@ def run_benchmark_job(job: BenchJob, policy: str | None = None) -> list[dict]:
     TrimTable.forget_shared()  # the job's numbers must not depend on what this process flew before
     plan = BenchmarkPlan.quick() if job.quick else BenchmarkPlan()
     family = FAMILIES[job.family]
-    controller = make_controller(job.controller, job.policy_path or policy, network_alone=job.network_alone)
+    controller = make_controller(job.controller, job.policy_path or policy, network_alone=job.network_alone,
+                                 aircraft=job.aircraft, transfer=job.transfer)
     row = {"family": job.family, "condition": condition_label(job.condition), "controller": job.label or job.controller,
            "realisation": job.realisation, "seed": seed_of(job.realisation, job.split)}
     if job.family == "steps":
@@ -310,12 +335,13 @@ NETWORK_ALONE = "{} (network alone)"  # the label of a policy flown without its 
 
 def jobs_for(families: list[str], controllers: list[str], episodes: int, quick: bool = False,
              split: str = "test", policies: dict[str, str] | None = None, network_alone=(),
-             policy: str | None = None) -> list[BenchJob]:
+             policy: str | None = None, aircraft: str = AIRCRAFT_NAME, transfer: bool = False) -> list[BenchJob]:
     """Every job: family x condition x realisation x controller (the controllers of one realisation
     next to each other), on the seeds of ``split`` ("test" or "validation"). ``policies`` adds, after
     ``controllers``, a policy file per label (``--compare``); ``network_alone`` then adds the policies
     it names ("policy": the "policy" controller, flying ``policy``; a label of ``policies``) without
-    their classical stages, labelled ``NETWORK_ALONE``."""
+    their classical stages, labelled ``NETWORK_ALONE``. Every job flies ``aircraft``
+    (``family_conditions``); ``transfer`` lets a policy fly it that was trained on another."""
     if split not in SPLITS:
         raise ValueError(f"split must be one of {', '.join(SPLITS)}, got {split!r}")
     if not 1 <= episodes <= len(SPLITS[split]):
@@ -324,8 +350,8 @@ def jobs_for(families: list[str], controllers: list[str], episodes: int, quick: 
                                                              for label, p in (policies or {}).items()]
     flown += [("policy", path if label else policy, NETWORK_ALONE.format(label or ctl), True)
               for ctl, path, label, _ in flown if ctl == "policy" and (label or ctl) in network_alone]
-    return [BenchJob(f, dict(c), ctl, k, quick, split, path, label, alone) for f in families
-            for c in FAMILIES[f].conditions for k in range(episodes) for ctl, path, label, alone in flown]
+    return [BenchJob(f, dict(c), ctl, k, quick, split, path, label, alone, str(aircraft), transfer) for f in families
+            for c in family_conditions(f, aircraft) for k in range(episodes) for ctl, path, label, alone in flown]
 
 
 def flown_labels(jobs: list[BenchJob]) -> list[str]:

@@ -26,6 +26,9 @@ the wall-clock time and the cores (``budget_record``).
 
 The flights' seeds are ``heldout.SEEDS``; every tuning checks them against the frozen test set
 (``seeds.check_not_test_seed``) before it flies, so no gain is ever chosen on the benchmark's flights.
+
+Another aircraft is tuned the same way from its own tables (``gain_files``: the PID's and the LQI's
+that its build designed), on the held-out flights moved into its envelope.
 """
 
 from __future__ import annotations
@@ -43,8 +46,8 @@ from pathlib import Path
 
 import numpy as np
 
-from jsbsim_env.control import lqi, tuning
-from jsbsim_env.control.pid import GAINS_PATH as PID_GAINS_PATH
+from aircraft import load_aircraft
+from jsbsim_env.control import gain_files, lqi, tuning
 from jsbsim_env.control.pid import GainSchedule, PIDAttitudeController
 from training.evaluation import heldout
 from training.evaluation.seeds import check_not_test_seed
@@ -115,11 +118,11 @@ def refuse_test_seeds(seeds, tool: str = TOOL) -> None:
     check_not_test_seed(seeds, tool)
 
 
-def tuning_flights(quick: bool = False) -> dict:
+def tuning_flights(quick: bool = False, aircraft=None) -> dict:
     """The held-out flights (``heldout.heldout_flights``) the tuning scores on, their seeds checked
     against the frozen test set; a test seed raises ``ValueError`` naming the tool."""
     try:
-        flights = heldout.heldout_flights(quick)
+        flights = heldout.heldout_flights(quick, aircraft)
     except ValueError as err:
         raise ValueError(f"{TOOL}: {err}") from None
     refuse_test_seeds([config.seed for config in flights.values()])
@@ -181,23 +184,26 @@ def lqi_robustness(table: dict) -> float:
 
 class Problem:
     """One controller's search: its parameters, its design from a parameter vector (``design``:
-    the gain table, or ``NotRobust``), and the controller a table flies as."""
+    the gain table, or ``NotRobust``), and the controller a table flies as; on ``aircraft`` (the
+    paper's by default), from its designed tables (``gain_files``)."""
 
-    def __init__(self, controller: str):
+    def __init__(self, controller: str, aircraft=None):
         if controller not in CONTROLLERS:
             raise ValueError(f"{TOOL}: controller must be one of {', '.join(CONTROLLERS)}, got {controller!r}")
         from jsbsim_env.sim.simulation import Simulation
 
         self.controller = controller
         self.parameters = PID_PARAMETERS if controller == "pid" else LQI_PARAMETERS
-        self.sim = Simulation()
+        self.sim = Simulation(aircraft)
         if controller == "pid":
-            self.base = json.loads(PID_GAINS_PATH.read_text())
+            self.base = json.loads(gain_files.gain_file("pid", aircraft).read_text())
             self.plants = {p["altitude_m"]: tuning.LinearPlant.at(self.sim, p["altitude_m"], self.base["design_eas_mps"])
                            for p in self.base["points"]}
             self.altitudes_m = tuple(self.plants)
         else:
-            self.altitudes_m = tuple(float(p["altitude_m"]) for p in json.loads(lqi.GAINS_PATH.read_text())["points"])
+            designed = json.loads(gain_files.gain_file("lqi", aircraft).read_text())
+            self.altitudes_m = tuple(float(p["altitude_m"]) for p in designed["points"])
+            self.design_eas_mps = float(designed.get("design_eas_mps", lqi.DESIGN_EAS_MPS))
 
     @property
     def x0(self) -> np.ndarray:
@@ -219,7 +225,8 @@ class Problem:
             table["method"] = "training.evaluation.classical_tuning (CMA-ES on the held-out flights) from pid_gains.json"
         else:
             try:
-                table = lqi.gain_table(self.sim, self.altitudes_m, sizes=lqi_sizes(x), detune=False)
+                table = lqi.gain_table(self.sim, self.altitudes_m, sizes=lqi_sizes(x), detune=False,
+                                       eas_mps=self.design_eas_mps)
             except lqi.RobustnessError as err:
                 raise NotRobust(str(err)) from None
             radius = lqi_robustness(table)
@@ -236,14 +243,15 @@ def controller_from_table(controller: str, table: dict):
     return lqi.LQIAttitudeController(lqi.LQIGainSchedule.from_table(table, "(candidate)"))
 
 
-def fly_table(controller: str, table: dict, quick: bool) -> dict:
+def fly_table(controller: str, table: dict, quick: bool, aircraft=None) -> dict:
     """``heldout.heldout_scores`` of the controller with ``table`` (a process pool's task)."""
-    return heldout.heldout_scores(partial(controller_from_table, controller, table), quick)
+    return heldout.heldout_scores(partial(controller_from_table, controller, table), quick, aircraft)
 
 
-def reference_scores(quick: bool) -> dict:
-    """The shipped PID's held-out scores: what every candidate's score is relative to."""
-    return heldout.heldout_scores(PIDAttitudeController, quick)
+def reference_scores(quick: bool, aircraft=None) -> dict:
+    """The designed PID's held-out scores (the shipped one on the paper's aircraft): what every
+    candidate's score is relative to."""
+    return heldout.heldout_scores(partial(PIDAttitudeController, aircraft=aircraft), quick, aircraft)
 
 
 @dataclass
@@ -278,7 +286,7 @@ class _Runner:
 
 
 def evaluate_candidates(problem: Problem, xs: Sequence, reference: dict, quick: bool = False,
-                        runner: _Runner | None = None) -> list[Evaluation]:
+                        runner: _Runner | None = None, aircraft=None) -> list[Evaluation]:
     """Each candidate's score: its design checked for robustness (infinite, unflown, where it fails),
     then the held-out flights, relative to ``reference`` (the PID's scores)."""
     runner = runner or _Runner(1)
@@ -293,7 +301,7 @@ def evaluate_candidates(problem: Problem, xs: Sequence, reference: dict, quick: 
             continue
         out.append(Evaluation(x, math.nan, None, table=table))
         to_fly.append(len(out) - 1)
-    flown = runner.map(fly_table, [(problem.controller, out[i].table, quick) for i in to_fly])
+    flown = runner.map(fly_table, [(problem.controller, out[i].table, quick, aircraft) for i in to_fly])
     for i, scores in zip(to_fly, flown):
         ev = out[i]
         ev.scores = scores
@@ -312,13 +320,14 @@ def default_popsize(n: int) -> int:
 
 
 def tune(controller: str, budget: int, seed: int = 0, workers: int = 1, quick: bool = False,
-         progress: Callable[[str], None] | None = None) -> dict:
+         progress: Callable[[str], None] | None = None, aircraft: str | None = None) -> dict:
     """CMA-ES over ``controller``'s parameters with ``budget`` candidate evaluations (generations of
     ``min(default_popsize, budget)`` candidates: up to ``budget``, none beyond), from the shipped
     design; returns the best candidate's gain table with its ``"tuning"`` record (the budget used,
     the scores, every evaluation's score). ``seed`` seeds CMA-ES (as ``seed + 1``: cma reads 0 as
-    "from the clock"). Refuses flights on the frozen test set before any work."""
-    flights = tuning_flights(quick)  # before anything else, even the optimiser's import
+    "from the clock"). ``aircraft``: a packaged aircraft's name or a built aircraft's folder (the
+    paper's by default). Refuses flights on the frozen test set before any work."""
+    flights = tuning_flights(quick, aircraft)  # before anything else, even the optimiser's import
     import cma
 
     if budget < 2:
@@ -327,15 +336,15 @@ def tune(controller: str, budget: int, seed: int = 0, workers: int = 1, quick: b
         raise ValueError(f"{TOOL}: workers must be at least 1, got {workers}")
     say = progress or (lambda text: None)
     started = time.perf_counter()
-    problem = Problem(controller)
+    problem = Problem(controller, aircraft)
     n = len(problem.parameters)
     popsize = max(2, min(default_popsize(n), budget))
     generations = budget // popsize
     runner = _Runner(workers)
     try:
-        reference = reference_scores(quick)
+        reference = reference_scores(quick, aircraft)
         say(f"reference (the shipped PID) flown: {time.perf_counter() - started:.1f} s")
-        start = evaluate_candidates(problem, [problem.x0], reference, quick, runner)[0]
+        start = evaluate_candidates(problem, [problem.x0], reference, quick, runner, aircraft)[0]
         if not math.isfinite(start.score):
             raise RuntimeError(f"{TOOL}: the shipped {controller.upper()} design scores infinite ({start.reason})")
         say(f"start (the shipped {controller.upper()}): score {start.score:.4f}")
@@ -348,7 +357,7 @@ def tune(controller: str, budget: int, seed: int = 0, workers: int = 1, quick: b
         stop_reason = None
         for g in range(generations):
             xs = es.ask()
-            evals = evaluate_candidates(problem, xs, reference, quick, runner)
+            evals = evaluate_candidates(problem, xs, reference, quick, runner, aircraft)
             es.tell(xs, [e.told for e in evals])
             history.extend(evals)
             for e in evals:
@@ -366,8 +375,10 @@ def tune(controller: str, budget: int, seed: int = 0, workers: int = 1, quick: b
     wall_s = time.perf_counter() - started
     table = {k: v for k, v in best.table.items()}
     flight_s = sum(c.duration_s for c in flights.values())
+    flown = load_aircraft(aircraft)
     table["tuning"] = {
         "controller": controller,
+        "aircraft": flown.name, "aircraft_model": flown.fingerprint,
         "optimiser": f"CMA-ES (cma {cma.__version__}), sigma0 {SIGMA0}, population {popsize}, bounds as parameters",
         "seed": seed,
         "parameters": {p.name: {"value": v, "low": p.low, "high": p.high,
@@ -416,7 +427,7 @@ def write_tuned_table(table: dict, path: Path | str) -> Path:
     """Write a tuned gain table as JSON (through a temporary file); refuses the shipped tables,
     which stay as they are."""
     path = Path(path)
-    shipped = {PID_GAINS_PATH.resolve(), lqi.GAINS_PATH.resolve()}
+    shipped = {gain_files.gain_file_path(kind).resolve() for kind in ("pid", "lqi")}
     if path.resolve() in shipped:
         raise ValueError(f"{TOOL}: {path} is a shipped gain table, which tuning never replaces: give another file")
     tmp = path.with_name(path.name + ".tmp")
