@@ -138,3 +138,27 @@ def test_a_policy_is_refused_on_an_aircraft_it_was_not_trained_on_unless_asked(s
     check_aircraft(trained_here, SMALL_AIRCRAFT, found)  # its own aircraft: flies
     with pytest.raises(WrongAircraftError, match="trained on small_solar_uav .* would fly solar_uav"):
         check_aircraft(trained_here, SMALL_AIRCRAFT, paper)
+
+
+def test_the_benchmark_and_the_tuning_fly_the_papers_conditions_in_its_envelope(small, load_script, tmp_path, capsys):
+    from training.evaluation.benchmark import BenchJob, family_conditions, jobs_for, run_benchmark_job
+    from training.evaluation.heldout import heldout_flights
+
+    assert [c["altitude_m"] for c in family_conditions("turbulence", small)] == [150.0, 1500.0, 3000.0]
+    assert [c["altitude_m"] for c in family_conditions("turbulence")] == [1000.0, 10000.0, 20000.0]
+    flights = heldout_flights(quick=True, aircraft=small)
+    assert {name: f.altitude_m for name, f in flights.items()} == {
+        "turbulent_5km": 750.0, "positive_3km": 450.0, "negative_3km": 450.0, "calm_15km": 2250.0}
+    assert all(f.eas_mps == 12.0 and f.aircraft == str(small) for f in flights.values())
+    jobs = jobs_for(["steps"], ["lqi"], 1, quick=True, aircraft=str(small))
+    assert {j.aircraft for j in jobs} == {str(small)} and len(jobs) == 4
+    (row,) = run_benchmark_job(BenchJob("turbulence", {"altitude_m": 1500.0}, "lqi", 0, quick=True,
+                                        aircraft=str(small)))
+    assert row["ended_early"] == "" and 0.0 < row["rmse_roll_deg"] < 2.0
+    # Refused before any flight: a tuned controller it has no table for, the paper's policy on it.
+    benchmark = load_script("benchmark").main
+    assert benchmark(["--aircraft", str(small), "--controllers", "pid_tuned", "--out", str(tmp_path / "a")]) == 2
+    assert "has no gain table" in capsys.readouterr().err
+    assert benchmark(["--aircraft", str(small), "--controllers", "policy,pid", "--out", str(tmp_path / "b")]) == 2
+    assert "ask for a transfer experiment" in capsys.readouterr().err
+    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
