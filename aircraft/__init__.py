@@ -99,6 +99,12 @@ class Aircraft:
             return paper_altitude_m
         return a0 + (paper_altitude_m - p0) / (p1 - p0) * (a1 - a0)
 
+    @property
+    def spec(self) -> str:
+        """What ``load_aircraft`` reads back as this aircraft from any working folder: its name if
+        packaged, else its folder's absolute path."""
+        return self.name if self.packaged else str(self.folder)
+
     def describe(self) -> str:
         """One line: the name, and the folder for an aircraft that does not ship with the package."""
         return self.name if self.packaged else f"{self.name} ({self.folder})"

@@ -31,8 +31,8 @@ from pathlib import Path
 
 # None of these loads torch, ray or onnxruntime: those load when flying, after the arguments are parsed.
 from aircraft import AIRCRAFT_NAME, load_aircraft
-from jsbsim_env.control.factory import CONTROLLER_NAMES
-from jsbsim_env.control.gain_files import GainsMissing, gain_file
+from jsbsim_env.control.factory import CONTROLLER_NAMES, check_flyable
+from jsbsim_env.control.gain_files import GainsMissing
 from jsbsim_env.task.metrics import json_ready
 from training.evaluation import selection
 from training.evaluation.benchmark import (
@@ -118,14 +118,11 @@ def main(argv=None) -> int:
         controllers = name_list(args.controllers, CONTROLLER_NAMES, "--controllers")
         families = name_list(args.families, tuple(FAMILIES), "--families")
         flown_aircraft = load_aircraft(args.aircraft)
-        for name in controllers:  # a classical controller's gain table, before any flight
-            if name != "policy":
-                gain_file(name, flown_aircraft)
         claim_output_folder(args.out, RESULTS, args.overwrite)
     except OutputFolderError as err:
         print(f"benchmark: --out: {err}", file=sys.stderr)
         return 2
-    except (ValueError, GainsMissing) as err:
+    except ValueError as err:
         print(f"benchmark: {err}", file=sys.stderr)
         return 2
     try:
@@ -133,22 +130,16 @@ def main(argv=None) -> int:
     except ValueError as err:
         print(f"benchmark: --compare: {err}", file=sys.stderr)
         return 2
-    alone = []  # the policies --network-alone flies without their classical stages
-    if "policy" in controllers or compared:  # read and checked once here, not in every job
-        from jsbsim_env.control.policy import PolicyFileError, check_aircraft, load_policy, shipped_policy_path
+    from jsbsim_env.control.policy import PolicyFileError, shipped_policy_path
 
-        flown = ({"policy": args.policy or shipped_policy_path()} if "policy" in controllers else {}) | compared
-        try:
-            for label, path in flown.items():
-                meta = load_policy(path)[1]
-                if not args.transfer:
-                    check_aircraft(meta, Path(path), flown_aircraft)
-                stack = meta["stack"]
-                if stack.network_alone() != stack:
-                    alone.append(label)
-        except PolicyFileError as err:
-            print(f"benchmark: {err}", file=sys.stderr)
-            return 2
+    flown = ({"policy": args.policy or shipped_policy_path()} if "policy" in controllers else {}) | compared
+    try:  # every gain table and policy file read and checked once here, before any flight
+        metas = check_flyable(controllers, flown_aircraft, flown, args.transfer)
+    except (PolicyFileError, GainsMissing) as err:
+        print(f"benchmark: {err}", file=sys.stderr)
+        return 2
+    # The policies --network-alone flies without their classical stages.
+    alone = [label for label, meta in metas.items() if meta["stack"].network_alone() != meta["stack"]]
     if args.network_alone and not alone:
         print("benchmark: --network-alone needs a policy with classical stages (goal trim or surface trim) to take "
               "away: the policy controller or --compare", file=sys.stderr)

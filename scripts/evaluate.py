@@ -80,6 +80,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--compare", type=Path, nargs="+", metavar="POLICY",
                         help="fly these policy files, the shipped policy and the PID on the same suite and print "
                              "one table, a column each (with --json: one object keyed by controller name)")
+    parser.add_argument("--aircraft", default=None,
+                        help="the aircraft flown: a packaged aircraft's name or a folder built by "
+                             "scripts/build_aircraft.py --out (default: the paper's); the doublets fly at the same "
+                             "fractions of its envelope, about its reference EAS")
+    parser.add_argument("--transfer", action="store_true",
+                        help="fly a policy on an aircraft it was not trained on (a transfer experiment)")
     parser.add_argument("--episodes", type=positive_int, default=DEFAULT_EPISODES,
                         help="seeded training-style episodes (at least 1; the seeds are below)")
     parser.add_argument("--plots", type=Path, help="folder for the doublet plots (none when omitted)")
@@ -115,23 +121,26 @@ def main(argv: list[str] | None = None) -> int:
 
     import torch
 
+    from aircraft import AircraftError
+    from jsbsim_env.control.gain_files import GainsMissing
     from jsbsim_env.control.policy import PolicyFileError
 
     torch.set_num_threads(1)
     try:  # every controller is built (its file read and checked) before the first flight
         controllers = _controllers(args)
-    except PolicyFileError as err:
+    except (PolicyFileError, AircraftError, GainsMissing) as err:
         print(f"evaluate: {err}", file=sys.stderr)
         return 2
     if args.compare:
-        results = {name: _evaluate(controller, about, args.episodes, None, progress=not args.json, label=name)
+        results = {name: _evaluate(controller, about, args.episodes, None, progress=not args.json, label=name,
+                                   aircraft=args.aircraft)
                    for name, (controller, about) in controllers.items()}
         print(json.dumps(results, indent=2, allow_nan=False, default=str) if args.json else comparison_table(results))
         return 0
     ((controller, about),) = controllers.values()
     if args.plots is not None and args.overwrite:
         remove_earlier_results(args.plots, PLOT_RESULTS)
-    results = _evaluate(controller, about, args.episodes, args.plots, progress=not args.json)
+    results = _evaluate(controller, about, args.episodes, args.plots, progress=not args.json, aircraft=args.aircraft)
     print(json.dumps(results, indent=2, allow_nan=False, default=str))
     return 0
 
@@ -142,30 +151,32 @@ def _controllers(args) -> dict[str, tuple[object, dict]]:
     from jsbsim_env.control.policy import PolicyRuntime
 
     def policy(path: Path | None) -> tuple[object, dict]:
-        runtime = PolicyRuntime(path, backend=args.backend)
+        runtime = PolicyRuntime(path, backend=args.backend, aircraft=args.aircraft, transfer=args.transfer)
         meta = runtime.meta
         return runtime, {"name": "policy", "file": str(path) if path else SHIPPED,
                          **{k: v for k, v in meta.items() if k not in ("network", "stack")},
                          "stack": meta["stack"].to_dict()}
 
     if args.compare:
-        pid = (PIDAttitudeController(), {"name": "gain-scheduled PID"})
+        pid = (PIDAttitudeController(aircraft=args.aircraft), {"name": "gain-scheduled PID"})
         return {**{str(path): policy(path) for path in args.compare}, SHIPPED: policy(None), PID: pid}
     if args.controller != "policy":
         from jsbsim_env.control.factory import make_controller
 
-        return {_LABELS[args.controller]: (make_controller(args.controller), {"name": _ABOUT[args.controller]})}
+        return {_LABELS[args.controller]: (make_controller(args.controller, aircraft=args.aircraft),
+                                           {"name": _ABOUT[args.controller]})}
     return {"policy": policy(args.policy)}
 
 
-def _evaluate(controller, about: dict, episodes: int, plots: Path | None, progress: bool, label: str = "") -> dict:
+def _evaluate(controller, about: dict, episodes: int, plots: Path | None, progress: bool, label: str = "",
+              aircraft: str | None = None) -> dict:
     """The suite's metrics of one controller, ready for JSON (each null explained in ``null_values``)."""
     from jsbsim_env.task.metrics import json_ready
     from training.evaluation.suite import evaluate
 
     if progress and label:
         print(f"evaluate: flying {label}", file=sys.stderr)
-    results = evaluate(controller, episodes=episodes, plot_dir=plots, progress=progress)
+    results = evaluate(controller, episodes=episodes, plot_dir=plots, progress=progress, aircraft=aircraft)
     results["controller"] = about
     nulls: dict[str, str] = {}
     results = json_ready(results, why_null, nulls)

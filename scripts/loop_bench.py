@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from aircraft import AIRCRAFT_NAME, load_aircraft
 from training.runtime import (
     OutputFolderError,
     ScriptParser,
@@ -54,6 +55,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--controller", choices=("policy", "pid", "lqi", "pid_tuned", "lqi_tuned"), default="policy",
                    help="the controller process flies this (factory.CONTROLLER_NAMES)")
     p.add_argument("--policy", default=None, help="policy file (.pt); the shipped policy when omitted")
+    p.add_argument("--aircraft", default=AIRCRAFT_NAME,
+                   help="the aircraft flown: a packaged aircraft's name or a folder built by scripts/build_aircraft.py "
+                        "--out (default: %(default)s); the route flies at the middle of its envelope")
+    p.add_argument("--transfer", action="store_true",
+                   help="fly the policy on an aircraft it was not trained on (a transfer experiment)")
     p.add_argument("--duration", type=number_type(float, 0.0, MAX_DURATION_S, low_open=True, unit="s"), default=60.0,
                    help="flight time, s")
     p.add_argument("--baud", type=positive_int, default=115_200,
@@ -84,7 +90,9 @@ def bench_config(args: argparse.Namespace):
     from jsbsim_env.bench.link import Faults
     from jsbsim_env.bench.plant import BenchConfig
 
-    return BenchConfig(mode=args.mode, controller=args.controller, policy=args.policy, duration_s=args.duration,
+    load_aircraft(args.aircraft)  # an AircraftError (a ValueError) names what the value is instead
+    return BenchConfig(mode=args.mode, controller=args.controller, policy=args.policy, aircraft=args.aircraft,
+                       transfer=args.transfer, duration_s=args.duration,
                        baud=args.baud, faults=Faults.parse(args.faults), device=args.device, seed=args.seed,
                        timeout_frames=args.timeout_frames, recover_frames=args.recover_frames)
 
@@ -95,8 +103,8 @@ def in_process(args) -> dict:
     from jsbsim_env.control.factory import make_controller
     from jsbsim_env.missions import fly_route
 
-    result = fly_route(make_controller(args.controller, args.policy),
-                       bench_route(args.duration, args.seed))
+    result = fly_route(make_controller(args.controller, args.policy, aircraft=args.aircraft, transfer=args.transfer),
+                       bench_route(args.duration, args.seed, args.aircraft))
     return {"tracking_rmse": {k[len("rmse_"):]: v for k, v in result.metrics().items() if k.startswith("rmse_")},
             "ended_early": result.ended_early}
 
@@ -117,14 +125,18 @@ def main(argv=None) -> int:
     except OutputFolderError as exc:
         print(f"loop_bench: --out: {exc}", file=sys.stderr)
         return 2
-    if args.controller == "policy":  # read and checked here, before the controller process starts
-        from jsbsim_env.control.policy import PolicyFileError, load_policy, shipped_policy_path
+    from jsbsim_env.control.factory import check_flyable
+    from jsbsim_env.control.gain_files import GainsMissing
+    from jsbsim_env.control.policy import PolicyFileError, shipped_policy_path
 
-        try:
-            load_policy(args.policy or shipped_policy_path())
-        except PolicyFileError as exc:
-            print(f"loop_bench: {exc}", file=sys.stderr)
-            return 2
+    # The controller's gain table or policy file, and the failsafe PID's table, read and checked
+    # here, before the controller process starts.
+    policies = {"policy": args.policy or shipped_policy_path()} if args.controller == "policy" else {}
+    try:
+        check_flyable({args.controller, "pid"}, args.aircraft, policies, args.transfer)
+    except (PolicyFileError, GainsMissing) as exc:
+        print(f"loop_bench: {exc}", file=sys.stderr)
+        return 2
     from tqdm import tqdm
 
     bar = tqdm(total=100, desc=f"{args.mode} flight", unit="%", file=sys.stderr, leave=False)

@@ -30,7 +30,9 @@ from pathlib import Path
 import numpy as np
 
 # None of these loads torch, ray or onnxruntime: those load when flying, after the arguments are parsed.
-from jsbsim_env.control.factory import CONTROLLER_NAMES
+from aircraft import AIRCRAFT_NAME, load_aircraft
+from jsbsim_env.control.factory import CONTROLLER_NAMES, check_flyable
+from jsbsim_env.control.gain_files import GainsMissing
 from jsbsim_env.task.metrics import json_ready
 from training.evaluation.seeds import check_not_test_seed
 from training.evaluation.sweep import (
@@ -63,6 +65,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="an axis and its values (repeatable, each axis once): " + ", ".join(
                        f"{k} {AXIS_RANGES[k].text(v)}" for k, v in AXIS_UNITS.items()))
     p.add_argument("--controllers", default="policy,pid", help=f"comma-separated, any of: {', '.join(CONTROLLER_NAMES)}")
+    p.add_argument("--aircraft", default=AIRCRAFT_NAME,
+                   help="the aircraft flown: a packaged aircraft's name or a folder built by scripts/build_aircraft.py "
+                        "--out (default: %(default)s); the altitude and EAS axes take its envelope")
+    p.add_argument("--transfer", action="store_true",
+                   help="fly the policy on an aircraft it was not trained on (a transfer experiment)")
     p.add_argument("--policy", default=None, help="policy file (.pt); the shipped policy when omitted")
     p.add_argument("--episodes", type=positive_int, default=10, help="seeded episodes per controller and condition")
     p.add_argument("--out", type=Path, default=Path("runs/sweep"), help="folder for the table, JSON and plots")
@@ -122,7 +129,8 @@ def plot_axis(rows: list[dict], axis: str, path: Path) -> None:
 def main(argv=None) -> int:
     args = parse_args(argv)
     try:
-        axes = parse_axes(args.axis)
+        load_aircraft(args.aircraft)
+        axes = parse_axes(args.axis, args.aircraft)
         if not axes:
             raise ValueError("give at least one --axis NAME=V1,V2,...")
         controllers = [c.strip() for c in args.controllers.split(",") if c.strip()]
@@ -138,17 +146,17 @@ def main(argv=None) -> int:
     except OutputFolderError as err:
         print(f"sweep: --out: {err}", file=sys.stderr)
         return 2
-    if "policy" in controllers:  # read and checked once here, not in every worker
-        from jsbsim_env.control.policy import PolicyFileError, load_policy, shipped_policy_path
+    from jsbsim_env.control.policy import PolicyFileError, shipped_policy_path
 
-        try:
-            load_policy(args.policy or shipped_policy_path())
-        except PolicyFileError as err:
-            print(f"sweep: {err}", file=sys.stderr)
-            return 2
+    policies = {"policy": args.policy or shipped_policy_path()} if "policy" in controllers else {}
+    try:  # gain tables and the policy file read and checked once here, not in every worker
+        check_flyable(controllers, args.aircraft, policies, args.transfer)
+    except (PolicyFileError, GainsMissing) as err:
+        print(f"sweep: {err}", file=sys.stderr)
+        return 2
     from tqdm import tqdm
 
-    jobs = jobs_for(controllers, grid(axes), args.episodes)
+    jobs = jobs_for(controllers, grid(axes), args.episodes, aircraft=args.aircraft, transfer=args.transfer)
     bar = tqdm(total=len(jobs), desc=f"sweep ({args.backend})", unit="job", file=sys.stderr)
     started = time.perf_counter()
     try:

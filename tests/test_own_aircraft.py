@@ -162,3 +162,25 @@ def test_the_benchmark_and_the_tuning_fly_the_papers_conditions_in_its_envelope(
     assert benchmark(["--aircraft", str(small), "--controllers", "policy,pid", "--out", str(tmp_path / "b")]) == 2
     assert "ask for a transfer experiment" in capsys.readouterr().err
     assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
+
+
+def test_the_suite_the_sweep_and_the_loop_bench_fly_it(small, load_script, tmp_path, capsys):
+    from jsbsim_env.control.factory import make_controller
+    from training.evaluation.suite import doublet_goal, doublet_runs
+    from training.evaluation.sweep import Job, parse_axis, run_job
+
+    assert doublet_goal(55.0, 12.0)[2] == 13.0 and doublet_goal(65.0)[2] == 9.0  # about its reference EAS
+    doublets = doublet_runs(make_controller("pid", aircraft=small), aircraft=small)
+    assert list(doublets) == ["75m", "750m", "2250m"] and not any(d["ended_early"] for d in doublets.values())
+    assert parse_axis("altitude_m=500,2500", small) == ("altitude_m", [500.0, 2500.0])
+    with pytest.raises(ValueError, match=r"5000 is outside its range \[0, 3000\] m: small_solar_uav's"):
+        parse_axis("altitude_m=5000", small)
+    (row,) = run_job(Job("lqi", {"altitude_m": 2500.0}, 0, 1, aircraft=str(small)))
+    assert not row["ended_early"] and row["rmse_roll_deg"] < 5.0
+    out = tmp_path / "bench"
+    assert load_script("loop_bench").main(["--aircraft", str(small), "--controller", "lqi", "--mode", "lockstep",
+                                           "--duration", "4", "--out", str(out), "--json"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["frames"] == 100 and not summary["ended_early"] and summary["failsafe_takeovers"] == 0
+    assert summary["in_process"]["rmse_ratio"]["roll_deg"] == pytest.approx(1.0, abs=1e-6)
+    capsys.readouterr()

@@ -174,6 +174,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--baud", type=_positive(int), default=115200, help="line rate, bit/s")
     parser.add_argument("--controller", default="policy", choices=CONTROLLER_NAMES)
     parser.add_argument("--policy", default=None, help="policy file (.pt); the shipped policy when omitted")
+    parser.add_argument("--aircraft", default=None,
+                        help="the aircraft flown (a packaged aircraft's name or a built aircraft's folder); the "
+                             "paper's when omitted")
+    parser.add_argument("--transfer", action="store_true",
+                        help="fly a policy on an aircraft it was not trained on (a transfer experiment)")
     parser.add_argument("--rate-hz", type=_positive(float), default=25.0, help="control frame rate the controller assumes, Hz")
     parser.add_argument("--faults", default="", help="controller-side faults: stall_at=S,stall_s=D (flight time, s)")
     parser.add_argument("--stats", default=None, help="write the counters here (JSON) on exit")
@@ -193,7 +198,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     from jsbsim_env.control.factory import make_controller
 
-    node = ControllerNode(port, make_controller(args.controller, args.policy), args.rate_hz, faults)
+    controller = make_controller(args.controller, args.policy, aircraft=args.aircraft, transfer=args.transfer)
+    node = ControllerNode(port, controller, args.rate_hz, faults)
 
     def stop(signum, frame):
         node.running = False

@@ -44,6 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
+from aircraft import AIRCRAFT_NAME, load_aircraft
 from jsbsim_env.bench.link import BITS_PER_BYTE, EmulatedLine, Faults, open_pty
 from jsbsim_env.bench.node import percentiles_ms
 from jsbsim_env.bench.wire import (
@@ -75,10 +76,13 @@ def frame_line_bytes() -> int:
     return len(burst) + len(encode_command(new_link(CONTROLLER_SYSTEM_ID), 40_000, [1.0, -1.0, 0.5, 0.4]))
 
 
-def bench_route(duration_s: float = 60.0, seed: int = 0) -> RouteConfig:
+def bench_route(duration_s: float = 60.0, seed: int = 0, aircraft=None) -> RouteConfig:
     """The bench's flight: the 10 km route's conditions (report Figs. 11-14) with turbulence from
-    the first leg on, so that a short flight is the turbulent leg."""
-    return RouteConfig(altitude_m=10_000.0, duration_s=duration_s, turbulence_legs=tuple(range(64)), seed=seed)
+    the first leg on, so that a short flight is the turbulent leg; another aircraft flies it at the
+    middle of its envelope (``Aircraft.altitude_like_m``) at its reference EAS."""
+    flown = load_aircraft(aircraft)
+    return RouteConfig(aircraft=flown.spec, altitude_m=flown.altitude_like_m(10_000.0), eas_mps=flown.reference_eas_mps,
+                       duration_s=duration_s, turbulence_legs=tuple(range(64)), seed=seed)
 
 
 class Failsafe:
@@ -122,6 +126,8 @@ class BenchConfig:
     mode: str = "realtime"  # or "lockstep"
     controller: str = "policy"  # or "pid"
     policy: str | None = None
+    aircraft: str = AIRCRAFT_NAME  # the aircraft flown (``aircraft.load_aircraft``)
+    transfer: bool = False  # fly a policy on an aircraft it was not trained on
     duration_s: float = 60.0
     baud: int = 115_200
     faults: Faults = field(default_factory=Faults)
@@ -209,6 +215,7 @@ class _ControllerProcess:
                "--controller", cfg.controller, "--rate-hz", str(cfg.rate_hz), "--stats", str(stats_path)]
         if cfg.policy:
             cmd += ["--policy", str(Path(cfg.policy).resolve())]  # the child runs in another folder
+        cmd += ["--aircraft", load_aircraft(cfg.aircraft).spec] + (["--transfer"] if cfg.transfer else [])
         f = cfg.faults
         if f.stall_at_s is not None:
             cmd += ["--faults", f"stall_at={f.stall_at_s},stall_s={f.stall_s}"]
@@ -340,8 +347,8 @@ class Plant:
 
     def _fly(self, fd: int, line: EmulatedLine, process, progress):
         cfg = self.cfg
-        flight = RouteFlight(bench_route(cfg.duration_s, cfg.seed))
-        pid = PIDAttitudeController()
+        flight = RouteFlight(bench_route(cfg.duration_s, cfg.seed, cfg.aircraft))
+        pid = PIDAttitudeController(aircraft=cfg.aircraft)  # the failsafe: the aircraft's own PID
         failsafe = Failsafe(cfg.timeout_frames, cfg.recover_frames)
         n = flight.steps
         log = {"time_s": np.full(n, np.nan), "latency_ms": np.full(n, np.nan), "fresh": np.zeros(n, bool),

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from aircraft import load_aircraft
 from jsbsim_env.control.gain_files import FILES, PACKAGED_DIR, gain_file
 from jsbsim_env.control.gain_files import GainsMissing as TunedGainsMissing
 from jsbsim_env.control.pid import PIDAttitudeController
@@ -21,6 +22,25 @@ def tuned_gain_file(name: str, aircraft=None) -> Path:
     """The gain file of the tuned controller ``name`` of ``aircraft`` (the paper's by default);
     ``TunedGainsMissing`` (one line saying how to write it) where it has not been written."""
     return gain_file(name, aircraft)
+
+
+def check_flyable(names, aircraft=None, policies: dict | None = None, transfer: bool = False) -> dict:
+    """Before any flight: each classical controller of ``names`` has ``aircraft``'s gain table
+    (``TunedGainsMissing`` otherwise), and each policy file of ``policies`` (label -> path) reads
+    and was trained on ``aircraft`` unless ``transfer`` (``PolicyFileError``, ``WrongAircraftError``).
+    Returns each policy's metadata (``load_policy``) by label."""
+    from jsbsim_env.control.policy import check_aircraft, load_policy
+
+    for name in names:
+        if name != "policy":
+            gain_file(name, aircraft)
+    flown = load_aircraft(aircraft)
+    metas = {}
+    for label, path in (policies or {}).items():
+        metas[label] = meta = load_policy(path)[1]
+        if not transfer:
+            check_aircraft(meta, Path(path), flown)
+    return metas
 
 
 def make_controller(name: str, policy=None, backend: str = "onnx", network_alone: bool = False, aircraft=None,
@@ -55,5 +75,6 @@ def make_controller(name: str, policy=None, backend: str = "onnx", network_alone
     raise ValueError(f"controller must be one of {', '.join(CONTROLLER_NAMES)}, got {name!r}")
 
 
-__all__ = ["CONTROLLER_NAMES", "TUNED_CONTROLLER_NAMES", "TUNED_GAIN_FILES", "TunedGainsMissing", "make_controller",
+__all__ = ["CONTROLLER_NAMES", "TUNED_CONTROLLER_NAMES", "TUNED_GAIN_FILES", "TunedGainsMissing", "check_flyable",
+           "make_controller",
            "tuned_gain_file"]

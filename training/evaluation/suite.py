@@ -18,6 +18,9 @@ identical episodes.
    within 10 % of the step size); the sideslip RMSE; Sm of each actuator.
 2. ``episodes`` seeded training-style episodes with every disturbance on: mean normalised return,
    episodes that ended early and why, RMSE per channel and Sm per actuator.
+
+Another aircraft (``aircraft``) flies the doublets at the same fractions of its envelope
+(``Aircraft.altitude_like_m``) and about its reference EAS (the EAS doublet to +-1 m/s of it).
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from aircraft import load_aircraft
 from jsbsim_env.control.base import AttitudeController
 from jsbsim_env.control.observation import action_to_command, command_to_action
 from jsbsim_env.sim.core import CoreConfig, termination_reason
@@ -42,9 +46,17 @@ DOUBLET_STEPS = ((0, 5.0, _D(5)), (0, 15.0, _D(-5)), (0, 25.0, 0.0), (1, 30.0, _
 EVAL_EPISODE_SEED = 777
 
 
-def doublet_goal(time_s: float) -> np.ndarray:
-    goal = np.array([0.0, 0.0, 10.0])
-    for channel, start, value in DOUBLET_STEPS:
+DOUBLET_EAS_MPS = 10.0  # the EAS of DOUBLET_STEPS: another reference EAS shifts its EAS steps alike
+
+
+def doublet_steps(eas_mps: float = DOUBLET_EAS_MPS) -> tuple:
+    """``DOUBLET_STEPS`` about a reference EAS of ``eas_mps`` (itself at 10 m/s)."""
+    return tuple((c, t, v + eas_mps - DOUBLET_EAS_MPS if c == 2 else v) for c, t, v in DOUBLET_STEPS)
+
+
+def doublet_goal(time_s: float, eas_mps: float = DOUBLET_EAS_MPS) -> np.ndarray:
+    goal = np.array([0.0, 0.0, eas_mps])
+    for channel, start, value in doublet_steps(eas_mps):
         if time_s >= start:
             goal[channel] = value
     return goal
@@ -78,8 +90,10 @@ def fly(controller: AttitudeController, batch: AttitudeTaskBatch, seed: int, ste
     return rec, end
 
 
-def step_response_metrics(rec: EpisodeRecorder) -> dict:
-    """Steady-state error and 90 % settling time of each scripted step (see the module docstring)."""
+def step_response_metrics(rec: EpisodeRecorder, eas_mps: float = DOUBLET_EAS_MPS) -> dict:
+    """Steady-state error and 90 % settling time of each scripted step (see the module docstring),
+    about a reference EAS of ``eas_mps``."""
+    steps = doublet_steps(eas_mps)
     a = rec.arrays()
     t, s = a["time_s"], a["true_state"]
     signals = {0: np.degrees(s[:, 1]), 1: np.degrees(s[:, 2]), 2: s[:, 6]}
@@ -87,11 +101,11 @@ def step_response_metrics(rec: EpisodeRecorder) -> dict:
     names = {0: "roll_deg", 1: "pitch_deg", 2: "airspeed_eas_mps"}
     out: dict[str, list] = {f"steady_state_error_{n}": [] for n in names.values()}
     out.update({f"settling_time_90_s_{n}": [] for n in names.values()})
-    for idx, (channel, start, value) in enumerate(DOUBLET_STEPS):
-        later = [st for ch, st, _ in DOUBLET_STEPS[idx + 1:] if ch == channel]
+    for idx, (channel, start, value) in enumerate(steps):
+        later = [st for ch, st, _ in steps[idx + 1:] if ch == channel]
         stop = later[0] if later else DOUBLET_END_S
-        previous = [v for ch, st, v in DOUBLET_STEPS[:idx] if ch == channel]
-        before = previous[-1] if previous else (10.0 if channel == 2 else 0.0)
+        previous = [v for ch, st, v in steps[:idx] if ch == channel]
+        before = previous[-1] if previous else (eas_mps if channel == 2 else 0.0)
         size = abs(value - before) * scale[channel]
         target = value * scale[channel]
         window = (t > start) & (t <= stop)
@@ -112,41 +126,49 @@ def step_response_metrics(rec: EpisodeRecorder) -> dict:
     return out
 
 
-def doublet_runs(controller: AttitudeController, altitudes_m=DOUBLET_ALTITUDES_M, plot_dir: Path | None = None,
-                 prefix: str = "doublets") -> dict:
-    """The paper's Section 5: the scripted doublets from a slightly perturbed start at each altitude,
-    no delay, noise or perturbation of the aircraft. Returns metrics per altitude; writes the
+def doublet_runs(controller: AttitudeController, altitudes_m=None, plot_dir: Path | None = None,
+                 prefix: str = "doublets", aircraft=None) -> dict:
+    """The paper's Section 5: the scripted doublets from a slightly perturbed start at each altitude
+    (``DOUBLET_ALTITUDES_M`` moved into the envelope of ``aircraft``, the paper's by default, when
+    None), no delay, noise or perturbation of the aircraft. Returns metrics per altitude; writes the
     Fig. 9 plots and time histories to ``plot_dir``."""
+    flown = load_aircraft(aircraft)
+    eas = flown.reference_eas_mps  # the paper's aircraft's: 10 m/s
+    if altitudes_m is None:
+        altitudes_m = tuple(flown.altitude_like_m(h) for h in DOUBLET_ALTITUDES_M)
     results = {}
-    ideal = CoreConfig.ideal(perturb_attitude_deg=2.0, perturb_rate_degps=1.0, perturb_eas_mps=0.5,
-                             max_steps=int(DOUBLET_END_S / 0.05) + 1)
+    ideal = CoreConfig.ideal(aircraft=str(aircraft or flown.name), perturb_attitude_deg=2.0, perturb_rate_degps=1.0,
+                             perturb_eas_mps=0.5, max_steps=int(DOUBLET_END_S / 0.05) + 1)
     batch = AttitudeTaskBatch(1, TaskConfig(core=ideal))
     steps = int(DOUBLET_END_S / 0.05)
     for altitude in altitudes_m:
-        rec, end = fly(controller, batch, seed=int(altitude), steps=steps, goal_fn=doublet_goal, altitude_m=altitude,
-                       airspeed_eas_mps=10.0)
-        results[f"{altitude:.0f}m"] = {**rec.tracking_metrics(), **step_response_metrics(rec),
+        rec, end = fly(controller, batch, seed=int(altitude), steps=steps,
+                       goal_fn=lambda t: doublet_goal(t, eas), altitude_m=altitude, airspeed_eas_mps=eas)
+        results[f"{altitude:.0f}m"] = {**rec.tracking_metrics(), **step_response_metrics(rec, eas),
                                        "ended_early": end["terminated"], "termination": end["reason"]}
         if plot_dir is not None:
             Path(plot_dir).mkdir(parents=True, exist_ok=True)
-            rec.plot(Path(plot_dir) / f"{prefix}_{altitude:.0f}m.png", f"Doublets at {altitude:.0f} m, EAS 10 m/s")
+            rec.plot(Path(plot_dir) / f"{prefix}_{altitude:.0f}m.png", f"Doublets at {altitude:.0f} m, EAS {eas:g} m/s")
             rec.save(Path(plot_dir) / f"{prefix}_{altitude:.0f}m.npz")
     return results
 
 
 def evaluate(controller: AttitudeController, episodes: int = 50, plot_dir: Path | None = None,
-             progress: bool = False) -> dict:
-    """Run the whole suite; returns the metrics (and writes the Fig. 9 plots to ``plot_dir``)."""
-    return {"doublets": doublet_runs(controller, DOUBLET_ALTITUDES_M, plot_dir),
-            "episodes": suite_episodes(controller, episodes, progress)}
+             progress: bool = False, aircraft=None) -> dict:
+    """Run the whole suite on ``aircraft`` (the paper's by default); returns the metrics (and writes
+    the Fig. 9 plots to ``plot_dir``)."""
+    return {"doublets": doublet_runs(controller, None, plot_dir, aircraft=aircraft),
+            "episodes": suite_episodes(controller, episodes, progress, aircraft)}
 
 
-def suite_episodes(controller: AttitudeController, episodes: int = 50, progress: bool = False) -> dict:
-    """The suite's seeded training-style episodes alone: mean metrics and return, early ends."""
+def suite_episodes(controller: AttitudeController, episodes: int = 50, progress: bool = False,
+                   aircraft=None) -> dict:
+    """The suite's seeded training-style episodes alone, on ``aircraft`` (the paper's by default):
+    mean metrics and return, early ends."""
     from training.evaluation.seeds import check_not_test_seed
 
     check_not_test_seed(range(EVAL_EPISODE_SEED, EVAL_EPISODE_SEED + episodes), "evaluation suite")
-    batch = AttitudeTaskBatch(1, TaskConfig())
+    batch = AttitudeTaskBatch(1, TaskConfig(core=CoreConfig(aircraft=str(aircraft or load_aircraft().name))))
     rows, early, reasons = [], 0, []
     iterator = range(episodes)
     if progress:
@@ -166,5 +188,14 @@ def suite_episodes(controller: AttitudeController, episodes: int = 50, progress:
     }
 
 
-__all__ = ["DOUBLET_ALTITUDES_M", "doublet_goal", "doublet_runs", "evaluate", "fly", "step_response_metrics",
-           "suite_episodes"]
+__all__ = [
+    "DOUBLET_ALTITUDES_M",
+    "DOUBLET_EAS_MPS",
+    "doublet_goal",
+    "doublet_runs",
+    "doublet_steps",
+    "evaluate",
+    "fly",
+    "step_response_metrics",
+    "suite_episodes",
+]

@@ -33,6 +33,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from aircraft import AIRCRAFT_NAME, load_aircraft
 from jsbsim_env.sim.core import COMMAND_HIGH, CoreConfig
 from jsbsim_env.sim.disturbances import RANDOMISATION_GROUPS
 from jsbsim_env.sim.simulation import ALTITUDE_RANGE_M, EAS_RANGE_MPS
@@ -108,11 +109,20 @@ AXIS_RANGES: dict[str, AxisRange] = {
 }
 
 
-def parse_axis(text: str) -> tuple[str, list[float]]:
+def axis_ranges(aircraft=None) -> dict[str, AxisRange]:
+    """``AXIS_RANGES`` for ``aircraft`` (the paper's by default): its own envelope on the altitude
+    and EAS axes."""
+    flown = load_aircraft(aircraft)
+    why = f"{flown.name}'s flight envelope, where a start is trimmed (its envelope.json)"
+    return {**AXIS_RANGES, "altitude_m": AxisRange(*flown.altitude_range_m, why),
+            "eas_mps": AxisRange(*flown.eas_range_mps, why)}
+
+
+def parse_axis(text: str, aircraft=None) -> tuple[str, list[float]]:
     """``"delay_ms=0,100,200"`` -> ("delay_ms", [0.0, 100.0, 200.0]). Refuses (``ValueError``, one
     line naming the axis, the value and the range) an unknown axis, a value that is not a number,
-    outside the axis's range (``AXIS_RANGES``; NaN and infinity are outside every range), or given
-    twice."""
+    outside the axis's range (``axis_ranges(aircraft)``; NaN and infinity are outside every range),
+    or given twice."""
     name, _, values = text.partition("=")
     name = name.strip()
     if name not in AXES:
@@ -123,7 +133,7 @@ def parse_axis(text: str) -> tuple[str, list[float]]:
         raise ValueError(f"axis {name}: values must be numbers separated by commas, got {values!r}") from None
     if not parsed:
         raise ValueError(f"axis {name} needs at least one finite value, got {values!r}")
-    allowed = AXIS_RANGES[name]
+    allowed = (AXIS_RANGES if aircraft is None else axis_ranges(aircraft))[name]
     for v in parsed:
         if not allowed.allows(v):
             raise ValueError(f"axis {name}: {v:.15g} is outside its range {allowed.text(AXIS_UNITS[name])}: "
@@ -135,12 +145,12 @@ def parse_axis(text: str) -> tuple[str, list[float]]:
     return name, parsed
 
 
-def parse_axes(texts: Iterable[str]) -> dict[str, list[float]]:
-    """Several ``--axis`` texts as {axis: values}, in the order given; an axis given twice is refused
-    (the later one would otherwise replace the first)."""
+def parse_axes(texts: Iterable[str], aircraft=None) -> dict[str, list[float]]:
+    """Several ``--axis`` texts as {axis: values}, in the order given, in ``aircraft``'s ranges; an
+    axis given twice is refused (the later one would otherwise replace the first)."""
     axes: dict[str, list[float]] = {}
     for text in texts:
-        name, values = parse_axis(text)
+        name, values = parse_axis(text, aircraft)
         if name in axes:
             raise ValueError(f"axis {name} given twice: give all its values in one --axis {name}=V1,V2,...")
         axes[name] = values
@@ -153,9 +163,10 @@ def grid(axes: dict[str, list[float]]) -> list[dict[str, float]]:
     return [dict(zip(names, combo)) for combo in itertools.product(*(axes[n] for n in names))]
 
 
-def condition_config(condition: dict[str, float], base: CoreConfig | None = None) -> TaskConfig:
-    """The task of one condition: the training setting with each axis applied."""
-    core = base or CoreConfig()
+def condition_config(condition: dict[str, float], base: CoreConfig | None = None, aircraft: str | None = None) -> TaskConfig:
+    """The task of one condition: the training setting (on ``aircraft``, the paper's by default)
+    with each axis applied."""
+    core = base or CoreConfig(aircraft=aircraft or AIRCRAFT_NAME)
     for name, value in condition.items():
         core = AXES[name](core, float(value))
     return TaskConfig(core=core)
@@ -169,6 +180,8 @@ class Job:
     condition: dict
     first: int
     count: int
+    aircraft: str = AIRCRAFT_NAME  # the aircraft flown (``aircraft.load_aircraft``)
+    transfer: bool = False  # fly a policy on an aircraft it was not trained on
 
 
 def run_job(job: Job, policy: str | None = None) -> list[dict]:
@@ -178,8 +191,8 @@ def run_job(job: Job, policy: str | None = None) -> list[dict]:
     from training.evaluation.suite import fly
 
     TrimTable.forget_shared()  # the job's numbers must not depend on what this process flew before
-    controller = make_controller(job.controller, policy)
-    batch = AttitudeTaskBatch(1, condition_config(job.condition))
+    controller = make_controller(job.controller, policy, aircraft=job.aircraft, transfer=job.transfer)
+    batch = AttitudeTaskBatch(1, condition_config(job.condition, aircraft=job.aircraft))
     rows = []
     for k in range(job.first, job.first + job.count):
         rec, end = fly(controller, batch, seed=SWEEP_EPISODE_SEED + k, steps=batch.config.core.max_steps)
@@ -198,11 +211,12 @@ def run_job(job: Job, policy: str | None = None) -> list[dict]:
     return rows
 
 
-def jobs_for(controllers: Iterable[str], conditions: list[dict], episodes: int, chunk: int = 5) -> list[Job]:
-    """The work, cut into jobs of at most ``chunk`` episodes. Refuses (``ValueError``) episodes whose
-    seeds reach into the benchmark's frozen test set (``training.evaluation.seeds``)."""
+def jobs_for(controllers: Iterable[str], conditions: list[dict], episodes: int, chunk: int = 5,
+             aircraft: str = AIRCRAFT_NAME, transfer: bool = False) -> list[Job]:
+    """The work on ``aircraft``, cut into jobs of at most ``chunk`` episodes. Refuses (``ValueError``)
+    episodes whose seeds reach into the benchmark's frozen test set (``training.evaluation.seeds``)."""
     check_not_test_seed(range(SWEEP_EPISODE_SEED, SWEEP_EPISODE_SEED + episodes), "sweep")
-    return [Job(c, cond, first, min(chunk, episodes - first))
+    return [Job(c, cond, first, min(chunk, episodes - first), str(aircraft), transfer)
             for c in controllers for cond in conditions for first in range(0, episodes, chunk)]
 
 
