@@ -31,6 +31,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--out", type=Path, required=True, help="folder for report.md, the figures and metrics.json")
     parser.add_argument("--overwrite", action="store_true", help="replace an earlier report in --out")
     parser.add_argument("--policy", type=Path, help="policy file (default: the shipped controller)")
+    parser.add_argument("--aircraft", default=None,
+                        help="the aircraft flown: a packaged aircraft's name or a folder built by "
+                             "scripts/build_aircraft.py --out (default: the paper's); the experiments fly at the same "
+                             "fractions of its envelope, about its reference EAS")
+    parser.add_argument("--transfer", action="store_true",
+                        help="fly a policy on an aircraft it was not trained on (a transfer experiment)")
     parser.add_argument("--quick", action="store_true", help="short flights, for tests")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--experiments", default=",".join(EXPERIMENTS),
@@ -53,18 +59,22 @@ def main(argv: list[str] | None = None) -> int:
     except OutputFolderError as err:
         print(f"report: --out: {err}", file=sys.stderr)
         return 2
-    from jsbsim_env.control.policy import PolicyFileError, load_policy
+    from aircraft import AircraftError
+    from jsbsim_env.control.factory import check_flyable
+    from jsbsim_env.control.gain_files import GainsMissing
+    from jsbsim_env.control.policy import PolicyFileError, shipped_policy_path
 
-    try:
-        if args.policy is not None and "RL" in controllers:  # read and checked before the first flight
-            if not args.policy.exists():
-                raise PolicyFileError(f"policy file {args.policy} does not exist")
-            load_policy(args.policy)
+    try:  # every gain table and the policy file read and checked before the first flight
+        if args.policy is not None and "RL" in controllers and not args.policy.exists():
+            raise PolicyFileError(f"policy file {args.policy} does not exist")
+        policy = args.policy or shipped_policy_path()
+        policies = {"RL": policy} if "RL" in controllers and policy.exists() else {}
+        check_flyable([name.lower() for name in controllers if name != "RL"], args.aircraft, policies, args.transfer)
         if args.overwrite:
             remove_earlier_results(args.out, RESULTS)
         run_report(args.out, args.policy, quick=args.quick, progress=not args.no_progress, experiments=experiments,
-                   controllers=controllers)
-    except PolicyFileError as err:
+                   controllers=controllers, aircraft_spec=args.aircraft, transfer=args.transfer)
+    except (PolicyFileError, AircraftError, GainsMissing) as err:
         print(f"report: {err}", file=sys.stderr)
         return 2
     print(f"wrote {args.out / 'report.md'}")

@@ -184,3 +184,27 @@ def test_the_suite_the_sweep_and_the_loop_bench_fly_it(small, load_script, tmp_p
     assert summary["frames"] == 100 and not summary["ended_early"] and summary["failsafe_takeovers"] == 0
     assert summary["in_process"]["rmse_ratio"]["roll_deg"] == pytest.approx(1.0, abs=1e-6)
     capsys.readouterr()
+
+
+def test_an_envelope_that_reaches_where_episodes_end_is_refused(small):
+    from jsbsim_env.sim.core import CoreConfig, Envelope, FlightCore
+
+    with pytest.raises(ValueError, match=r"small_solar_uav's envelope \(EAS 10-15 m/s, up to 3000 m\) reaches where "
+                                         r"an episode ends \(CoreConfig.envelope: EAS 4-14 m/s"):
+        FlightCore(CoreConfig(aircraft=str(small), envelope=Envelope(eas_range_mps=(4.0, 14.0))))
+
+
+def test_the_report_flies_the_papers_experiments_in_its_envelope(small, load_script, tmp_path, capsys):
+    out = tmp_path / "report"
+    report = load_script("report").main
+    assert report(["--aircraft", str(small), "--controllers", "PID,LQI", "--experiments", "route_10km,altitudes",
+                   "--quick", "--no-progress", "--out", str(out)]) == 0
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["aircraft"]["name"] == "small_solar_uav" and "paper" not in metrics
+    assert metrics["aircraft"]["altitudes_m"] == {"1km": 150.0, "20km": 3000.0}
+    assert metrics["route_10km"]["LQI"]["ended_early"] is None or not metrics["route_10km"]["LQI"]["ended_early"]
+    text = (out / "report.md").read_text()
+    assert "Flown on `small_solar_uav`" in text and "| paper |" not in text
+    # The shipped policy (the RL rows by default) was trained on the paper's aircraft: refused up front.
+    assert report(["--aircraft", str(small), "--quick", "--out", str(tmp_path / "refused")]) == 2
+    assert "ask for a transfer experiment" in capsys.readouterr().err

@@ -29,9 +29,9 @@ def test_quick_report_writes_every_named_file(tmp_path, untrained_policy):
     for key in ("route_10km", "perturbation", "altitudes", "backlash", "doublets", "effectiveness"):
         assert key in metrics
     assert "| PID | ours |" in text and "| RL | ours |" in text
-    # It says which aircraft model the policy was trained on: this one was saved without a record.
-    assert metrics["policy"]["trained_on_aircraft_model"] is None
-    assert "whose record names no aircraft model" in text
+    # It says which aircraft model the policy was trained on: the one its file records, this one.
+    assert metrics["policy"]["trained_on_aircraft_model"] == metrics["policy"]["flown_aircraft_model"]
+    assert "trained on the aircraft model this report flies" in text
     # The PID's rows match its metrics.
     pid = metrics["route_10km"]["PID"]["turbulent_leg"]
     assert f"| PID | ours | {pid['rmse_roll_deg']:.3f} |" in text
@@ -63,3 +63,13 @@ def test_report_runs_only_the_experiments_and_controllers_named(tmp_path):
     bad = subprocess.run([sys.executable, str(SCRIPTS / "report.py"), "--out", str(tmp_path), "--quick",
                           "--experiments", "altitudes,loops"], check=False, capture_output=True, text=True, timeout=300)
     assert bad.returncode != 0 and "unknown or no experiment ['loops']" in bad.stderr
+
+
+def test_the_provenance_line_names_the_trained_and_the_flown_model():
+    from training.evaluation.report import _provenance_line
+
+    flown = "ab" * 32
+    unnamed = _provenance_line({"path": "p.pt", "trained_on_aircraft_model": None, "flown_aircraft_model": flown})
+    assert "whose record names no aircraft model" in unnamed and "`abababababab`" in unnamed
+    other = _provenance_line({"path": "p.pt", "trained_on_aircraft_model": "cd" * 32, "flown_aircraft_model": flown})
+    assert "not on the one this report flies" in other and "`cdcdcdcdcdcd`" in other

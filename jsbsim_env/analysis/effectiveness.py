@@ -54,9 +54,10 @@ def effectiveness_at(sim: Simulation, altitude_m: float, airspeed_eas_mps: float
     return out
 
 
-def effectiveness(altitudes_m, airspeed_eas_mps: float = 10.0) -> list[dict[str, float]]:
-    """``effectiveness_at`` for every altitude, each figure also normalised to the first altitude."""
-    sim = Simulation()
+def effectiveness(altitudes_m, airspeed_eas_mps: float = 10.0, aircraft=None) -> list[dict[str, float]]:
+    """``effectiveness_at`` for every altitude of ``aircraft`` (the paper's by default), each figure
+    also normalised to the first altitude."""
+    sim = Simulation(aircraft)
     rows = [effectiveness_at(sim, h, airspeed_eas_mps) for h in altitudes_m]
     for row in rows:
         for key in [k for k in row if k.endswith(("_per_deg", "_n"))]:

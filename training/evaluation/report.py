@@ -14,6 +14,12 @@ figure and ``metrics.json``.
 Every flight goes through the same flight core with fixed seeds, so two runs of the report give
 the same numbers. Without a trained policy (none shipped and no ``policy_path``) the PID parts
 run and the policy's rows say so.
+
+Another aircraft (``aircraft``) flies the same experiments where its envelope puts them: each
+altitude at the same fraction of its altitude range (``Aircraft.altitude_like_m``: 10 km is the
+middle), at its reference EAS, with turbulence on the leg it flies at the same share of the route's
+time as the paper's ninth leg; the tables then leave out the paper's figures, which are its
+aircraft's, and keep the paper's experiment names ("1km" is 5 % up the envelope).
 """
 
 from __future__ import annotations
@@ -73,32 +79,49 @@ class ReportPlan:
                    effectiveness_altitudes_m=(0.0, 20000.0), steady_after_leg_change_s=5.0)
 
 
-def _controllers(policy_path) -> tuple[dict[str, Callable[[], object]], Path | None]:
-    """Factories of the attitude controllers to compare, the policy only when one is available;
-    and the policy file (None without one)."""
+def _controllers(policy_path, aircraft=None, transfer: bool = False) -> tuple[dict[str, Callable[[], object]], Path | None]:
+    """Factories of the attitude controllers to compare on ``aircraft``, the policy only when one is
+    available; and the policy file (None without one)."""
     from jsbsim_env.control.factory import make_controller
 
-    makers: dict[str, Callable[[], object]] = {"PID": PIDAttitudeController}
+    makers: dict[str, Callable[[], object]] = {"PID": partial(PIDAttitudeController, aircraft=aircraft)}
     # Each extra controller is the factory's of the same name in lower case ("LQI_tuned": "lqi_tuned").
-    makers.update({name: partial(make_controller, name.lower()) for name in EXTRA_CONTROLLERS})
+    makers.update({name: partial(make_controller, name.lower(), aircraft=aircraft) for name in EXTRA_CONTROLLERS})
     from jsbsim_env.control.policy import PolicyFileError, shipped_policy_path
 
     path = Path(policy_path) if policy_path is not None else shipped_policy_path()
     if path.exists():
-        makers["RL"] = lambda: make_controller("policy", path)
+        makers["RL"] = lambda: make_controller("policy", path, aircraft=aircraft, transfer=transfer)
         return makers, path
     if policy_path is not None:
         raise PolicyFileError(f"policy file {path} does not exist")
     return makers, None
 
 
-def policy_provenance(path: Path) -> dict[str, str | None]:
+def policy_provenance(path: Path, flown: aircraft.Aircraft | None = None) -> dict[str, str | None]:
     """The policy file, the aircraft model it was trained on and the one the report flies
-    (``aircraft.model_fingerprint``)."""
+    (``aircraft.model_fingerprint``; the paper's aircraft's when ``flown`` is None)."""
+    from jsbsim_env.control.policy import load_policy
     from training.provenance import trained_aircraft_model
 
-    return {"path": str(path), "trained_on_aircraft_model": trained_aircraft_model(path),
-            "flown_aircraft_model": aircraft.model_fingerprint()}
+    trained = load_policy(path)[1].get("aircraft_model") or trained_aircraft_model(path)
+    return {"path": str(path), "trained_on_aircraft_model": trained,
+            "flown_aircraft_model": (flown or aircraft.load_aircraft()).fingerprint}
+
+
+def leg_in_progress(config: RouteConfig, time_s: float) -> int:
+    """The leg (0: the first flown) a route flight is on at ``time_s`` in still air, flown at the
+    true airspeed of its EAS in the standard atmosphere, the turns ignored."""
+    from jsbsim_env.missions import standard_density_kg_m3
+
+    wp = config.waypoints()
+    tas = config.eas_mps * math.sqrt(1.225 / standard_density_kg_m3(config.altitude_m))
+    lengths = np.hypot(*(np.roll(wp, -1, axis=0) - wp).T)
+    elapsed, leg = 0.0, 0
+    while elapsed + lengths[leg % len(wp)] / tas <= time_s:
+        elapsed += lengths[leg % len(wp)] / tas
+        leg += 1
+    return leg
 
 
 def _provenance_line(policy: dict) -> str:
@@ -277,10 +300,12 @@ def _fmt(x) -> str:
 
 def run_report(out_dir: Path | str, policy_path: Path | str | None = None, quick: bool = False,
                progress: bool = True, experiments: tuple[str, ...] = EXPERIMENTS,
-               controllers: tuple[str, ...] = CONTROLLERS) -> dict:
+               controllers: tuple[str, ...] = CONTROLLERS, aircraft_spec: str | None = None,
+               transfer: bool = False) -> dict:
     """Run the experiments (all of ``EXPERIMENTS`` unless fewer are named) for the controllers named
-    ("PID", "RL" by default; those of ``EXTRA_CONTROLLERS`` when named), write ``report.md``,
-    the figures and ``metrics.json``; returns the metrics."""
+    ("PID", "RL" by default; those of ``EXTRA_CONTROLLERS`` when named) on the aircraft
+    ``aircraft_spec`` names (the paper's by default; ``transfer`` flies a policy trained on another),
+    write ``report.md``, the figures and ``metrics.json``; returns the metrics."""
     known = CONTROLLERS + EXTRA_CONTROLLERS
     unknown = sorted(set(experiments) - set(EXPERIMENTS)) + sorted(set(controllers) - set(known))
     if unknown:
@@ -289,16 +314,28 @@ def run_report(out_dir: Path | str, policy_path: Path | str | None = None, quick
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     plan = ReportPlan.quick() if quick else ReportPlan()
-    makers, policy_file = _controllers(policy_path)
+    flown = aircraft.load_aircraft(aircraft_spec)
+    papers = flown.packaged and flown.name == aircraft.AIRCRAFT_NAME  # the paper's figures are its aircraft's
+    at = flown.altitude_like_m
+    makers, policy_file = _controllers(policy_path, flown.spec, transfer)
     makers = {name: make for name, make in makers.items() if name in controllers}
     names = list(makers)
-    base = RouteConfig(altitude_m=10_000.0, duration_s=plan.route_10km_s, turbulence_legs=(plan.turbulence_leg,),
-                       seed=ROUTE_SEED)
+    base = RouteConfig(aircraft=flown.spec, altitude_m=at(10_000.0), eas_mps=flown.reference_eas_mps,
+                       duration_s=plan.route_10km_s, seed=ROUTE_SEED)
+    # The paper's ninth leg; another aircraft's leg at the same share of the route's time.
+    turbulence_leg = plan.turbulence_leg if papers or quick else leg_in_progress(base, 0.8 * plan.route_10km_s)
+    base = replace(base, turbulence_legs=(turbulence_leg,))
     tasks: list[tuple[str, str, Callable[[], None]]] = []  # (experiment, label, task)
-    metrics: dict = {"plan": asdict(plan), "controllers": names, "experiments": list(experiments), "paper": {"table8": PAPER_TABLE8,
-                     "level_mae": PAPER_LEVEL_MAE, "steady_state": PAPER_STEADY_STATE}}
+    metrics: dict = {"plan": asdict(plan), "controllers": names, "experiments": list(experiments)}
+    if papers:
+        metrics["paper"] = {"table8": PAPER_TABLE8, "level_mae": PAPER_LEVEL_MAE, "steady_state": PAPER_STEADY_STATE}
+    else:
+        metrics["aircraft"] = {"name": flown.name, "model": flown.fingerprint, "folder": str(flown.folder),
+                               "route_altitude_m": base.altitude_m, "eas_mps": flown.reference_eas_mps,
+                               "turbulence_leg": turbulence_leg,
+                               "altitudes_m": {"1km": at(1000.0), "20km": at(20000.0)}}
     if policy_file is not None:
-        metrics["policy"] = policy_provenance(policy_file)
+        metrics["policy"] = policy_provenance(policy_file, flown)
     routes: dict[tuple[str, str], MissionResult] = {}
 
     def fly(key: str, name: str, config: RouteConfig) -> MissionResult:
@@ -313,12 +350,13 @@ def run_report(out_dir: Path | str, policy_path: Path | str | None = None, quick
             return
         from training.evaluation.suite import doublet_runs
 
-        metrics["doublets"] = doublet_runs(makers["RL"](), plan.doublet_altitudes_m, out, prefix="fig09_doublets")
+        metrics["doublets"] = doublet_runs(makers["RL"](), tuple(at(h) for h in plan.doublet_altitudes_m), out,
+                                           prefix="fig09_doublets", aircraft=flown.spec)
 
     tasks.append(("doublets", "Fig. 9 doublets", doublets))
 
     def fig10() -> None:
-        rows = effectiveness(list(plan.effectiveness_altitudes_m), 10.0)
+        rows = effectiveness([at(h) for h in plan.effectiveness_altitudes_m], flown.reference_eas_mps, flown.spec)
         plot_effectiveness(rows, out / "fig10_effectiveness.png")
         metrics["effectiveness"] = rows
 
@@ -371,14 +409,14 @@ def run_report(out_dir: Path | str, policy_path: Path | str | None = None, quick
     # Item 7: 1 km and 20 km, calm air.
     def altitude_route(name: str, altitude_m: float) -> Callable[[], None]:
         def run() -> None:
-            key = f"{altitude_m / 1000:.0f}km"
-            r = fly(f"route_{key}", name, replace(base, altitude_m=altitude_m, duration_s=plan.route_other_s,
+            key = f"{altitude_m / 1000:.0f}km"  # the paper's name of the experiment
+            r = fly(f"route_{key}", name, replace(base, altitude_m=at(altitude_m), duration_s=plan.route_other_s,
                                                   turbulence_legs=()))
             entry = _summary(r)
             entry["steady_state_error"] = steady_state_errors(r, plan.steady_after_leg_change_s)
             metrics.setdefault("altitudes", {}).setdefault(key, {})[name] = entry
             fig = "fig17" if altitude_m < 10_000 else "fig18"
-            plot_route(r, out / f"{fig}_route_{key}_{name}.png", f"{altitude_m / 1000:.0f} km route, {name}")
+            plot_route(r, out / f"{fig}_route_{key}_{name}.png", f"{at(altitude_m) / 1000:g} km route, {name}")
 
         return run
 
@@ -435,6 +473,13 @@ def render_markdown(metrics: dict, out: Path) -> str:
     """The report text: tables with the paper's figures beside ours, and the figures."""
     names = metrics["controllers"]
     lines = ["# Solar UAV attitude control: the paper's experiments", ""]
+    other = metrics.get("aircraft")
+    if other:
+        lines += [(f"Flown on `{other['name']}` (`{other['folder']}`, model `{other['model'][:12]}`): the route at "
+                   f"{other['route_altitude_m']:g} m and {other['eas_mps']:g} m/s EAS, turbulence on leg "
+                   f"{other['turbulence_leg']}; \"1km\" is {other['altitudes_m']['1km']:g} m, \"20km\" "
+                   f"{other['altitudes_m']['20km']:g} m. The paper's figures are its aircraft's and are left out."), ""]
+    paper8 = PAPER_TABLE8 if not other else {}
     if "RL" not in names:
         lines += ["No trained policy was available: the policy's rows and figures are missing.", ""]
     if "policy" in metrics:
@@ -447,8 +492,8 @@ def render_markdown(metrics: dict, out: Path) -> str:
     keys = ("rmse_roll_deg", "rmse_pitch_deg", "rmse_airspeed_eas_mps", "rmse_beta_deg", "smoothness_aileron",
             "smoothness_elevator", "smoothness_rudder", "smoothness_throttle")
     for name in ("PID", "RL", *EXTRA_CONTROLLERS):
-        if name in PAPER_TABLE8:
-            lines.append(f"| {name} | paper | " + " | ".join(_fmt(PAPER_TABLE8[name][k]) for k in keys) + " |")
+        if name in paper8:
+            lines.append(f"| {name} | paper | " + " | ".join(_fmt(paper8[name][k]) for k in keys) + " |")
         entry = metrics.get("route_10km", {}).get(name)
         if entry and "turbulent_leg" in entry:
             lines.append(f"| {name} | ours | " + " | ".join(_fmt(entry["turbulent_leg"][k]) for k in keys) + " |")
@@ -470,8 +515,9 @@ def render_markdown(metrics: dict, out: Path) -> str:
                f"falls in it: the straight-flight columns leave out the {after:.0f} s after each leg change, as "
                "the steady-state errors do; the whole window keeps the turn."), "",
               "| controller | source | roll, deg | pitch, deg | sideslip, deg | whole window: roll, pitch, sideslip, deg |",
-              "|---|---|---|---|---|---|",
-              "| RL | paper | " + " | ".join(_fmt(PAPER_LEVEL_MAE[k]) for k in mae_keys) + " | |"]
+              "|---|---|---|---|---|---|"]
+    if not other:
+        lines.append("| RL | paper | " + " | ".join(_fmt(PAPER_LEVEL_MAE[k]) for k in mae_keys) + " | |")
     for name in names:
         entry = metrics.get("route_10km", {}).get(name)
         if entry:
@@ -483,8 +529,9 @@ def render_markdown(metrics: dict, out: Path) -> str:
     lines += ["## Steady-state error on the straight legs at 1 km and 20 km (calm air)", "",
               "| altitude | controller | source | roll, deg | pitch, deg |", "|---|---|---|---|---|"]
     for key in ("1km", "20km"):
-        paper = PAPER_STEADY_STATE[key]
-        lines.append(f"| {key} | RL | paper | {_fmt(paper['roll_deg'])} | {_fmt(paper['pitch_deg'])} |")
+        if not other:
+            paper = PAPER_STEADY_STATE[key]
+            lines.append(f"| {key} | RL | paper | {_fmt(paper['roll_deg'])} | {_fmt(paper['pitch_deg'])} |")
         for name in names:
             entry = metrics.get("altitudes", {}).get(key, {}).get(name)
             if entry:
