@@ -51,6 +51,7 @@ from training.evaluation.sweep import run_local, run_ray
 from training.runtime import (
     OutputFolderError,
     ScriptParser,
+    add_aircraft_options,
     available_cores,
     claim_output_folder,
     name_list,
@@ -66,11 +67,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
     p.add_argument("--controllers", default=",".join(CONTROLLER_NAMES),
                    help=f"comma-separated, any of: {', '.join(CONTROLLER_NAMES)}")
-    p.add_argument("--aircraft", default=AIRCRAFT_NAME,
-                   help="the aircraft flown: a packaged aircraft's name or a folder built by scripts/build_aircraft.py "
-                        "--out (default: %(default)s); the families fly at the same fractions of its envelope")
-    p.add_argument("--transfer", action="store_true",
-                   help="fly policies on an aircraft other than the one they were trained on (a transfer experiment)")
+    add_aircraft_options(p, "the families fly at the same fractions of its envelope", default=AIRCRAFT_NAME)
     p.add_argument("--policy", default=None, help="policy file (.pt); the shipped policy when omitted")
     p.add_argument("--compare", nargs="+", type=Path, default=(), metavar="POLICY",
                    help="more policy files, each flown as a controller of its own (named by its run folder, or its "

@@ -25,6 +25,7 @@ from pathlib import Path
 from training.runtime import (
     OutputFolderError,
     ScriptParser,
+    add_aircraft_options,
     claim_output_folder,
     positive_int,
     remove_earlier_results,
@@ -80,12 +81,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--compare", type=Path, nargs="+", metavar="POLICY",
                         help="fly these policy files, the shipped policy and the PID on the same suite and print "
                              "one table, a column each (with --json: one object keyed by controller name)")
-    parser.add_argument("--aircraft", default=None,
-                        help="the aircraft flown: a packaged aircraft's name or a folder built by "
-                             "scripts/build_aircraft.py --out (default: the paper's); the doublets fly at the same "
-                             "fractions of its envelope, about its reference EAS")
-    parser.add_argument("--transfer", action="store_true",
-                        help="fly a policy on an aircraft it was not trained on (a transfer experiment)")
+    add_aircraft_options(parser, "the doublets fly at the same fractions of its envelope, about its reference EAS")
     parser.add_argument("--episodes", type=positive_int, default=DEFAULT_EPISODES,
                         help="seeded training-style episodes (at least 1; the seeds are below)")
     parser.add_argument("--plots", type=Path, help="folder for the doublet plots (none when omitted)")

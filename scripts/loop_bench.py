@@ -35,6 +35,7 @@ from aircraft import AIRCRAFT_NAME, load_aircraft
 from training.runtime import (
     OutputFolderError,
     ScriptParser,
+    add_aircraft_options,
     claim_output_folder,
     non_negative_int,
     number_type,
@@ -55,11 +56,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--controller", choices=("policy", "pid", "lqi", "pid_tuned", "lqi_tuned"), default="policy",
                    help="the controller process flies this (factory.CONTROLLER_NAMES)")
     p.add_argument("--policy", default=None, help="policy file (.pt); the shipped policy when omitted")
-    p.add_argument("--aircraft", default=AIRCRAFT_NAME,
-                   help="the aircraft flown: a packaged aircraft's name or a folder built by scripts/build_aircraft.py "
-                        "--out (default: %(default)s); the route flies at the middle of its envelope")
-    p.add_argument("--transfer", action="store_true",
-                   help="fly the policy on an aircraft it was not trained on (a transfer experiment)")
+    add_aircraft_options(p, "the route flies at the middle of its envelope", default=AIRCRAFT_NAME)
     p.add_argument("--duration", type=number_type(float, 0.0, MAX_DURATION_S, low_open=True, unit="s"), default=60.0,
                    help="flight time, s")
     p.add_argument("--baud", type=positive_int, default=115_200,

@@ -20,7 +20,13 @@ from pathlib import Path
 
 # The experiments' and controllers' names for the help; torch and onnxruntime load when flying.
 from training.evaluation.report import CONTROLLERS, EXPERIMENTS, EXTRA_CONTROLLERS, run_report
-from training.runtime import OutputFolderError, ScriptParser, claim_output_folder, remove_earlier_results
+from training.runtime import (
+    OutputFolderError,
+    ScriptParser,
+    add_aircraft_options,
+    claim_output_folder,
+    remove_earlier_results,
+)
 
 # The files a report writes to --out (an earlier report's are refused, or replaced with --overwrite).
 RESULTS = ("report.md", "metrics.json", "fig*.png")
@@ -31,12 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--out", type=Path, required=True, help="folder for report.md, the figures and metrics.json")
     parser.add_argument("--overwrite", action="store_true", help="replace an earlier report in --out")
     parser.add_argument("--policy", type=Path, help="policy file (default: the shipped controller)")
-    parser.add_argument("--aircraft", default=None,
-                        help="the aircraft flown: a packaged aircraft's name or a folder built by "
-                             "scripts/build_aircraft.py --out (default: the paper's); the experiments fly at the same "
-                             "fractions of its envelope, about its reference EAS")
-    parser.add_argument("--transfer", action="store_true",
-                        help="fly a policy on an aircraft it was not trained on (a transfer experiment)")
+    add_aircraft_options(parser, "the experiments fly at the same fractions of its envelope, about its reference EAS")
     parser.add_argument("--quick", action="store_true", help="short flights, for tests")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--experiments", default=",".join(EXPERIMENTS),

@@ -50,6 +50,7 @@ from training.evaluation.sweep import (
 from training.runtime import (
     OutputFolderError,
     ScriptParser,
+    add_aircraft_options,
     claim_output_folder,
     positive_int,
     remove_earlier_results,
@@ -65,11 +66,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="an axis and its values (repeatable, each axis once): " + ", ".join(
                        f"{k} {AXIS_RANGES[k].text(v)}" for k, v in AXIS_UNITS.items()))
     p.add_argument("--controllers", default="policy,pid", help=f"comma-separated, any of: {', '.join(CONTROLLER_NAMES)}")
-    p.add_argument("--aircraft", default=AIRCRAFT_NAME,
-                   help="the aircraft flown: a packaged aircraft's name or a folder built by scripts/build_aircraft.py "
-                        "--out (default: %(default)s); the altitude and EAS axes take its envelope")
-    p.add_argument("--transfer", action="store_true",
-                   help="fly the policy on an aircraft it was not trained on (a transfer experiment)")
+    add_aircraft_options(p, "the altitude and EAS axes take its envelope", default=AIRCRAFT_NAME)
     p.add_argument("--policy", default=None, help="policy file (.pt); the shipped policy when omitted")
     p.add_argument("--episodes", type=positive_int, default=10, help="seeded episodes per controller and condition")
     p.add_argument("--out", type=Path, default=Path("runs/sweep"), help="folder for the table, JSON and plots")

@@ -214,6 +214,16 @@ def number_type(kind: type = float, low: float | None = None, high: float | None
     return convert
 
 
+def add_aircraft_options(parser: argparse.ArgumentParser, where: str, default: str | None = None) -> None:
+    """``--aircraft`` (the aircraft flown; ``where`` says how the command's flights move into its
+    envelope) and ``--transfer`` (a policy flown on an aircraft it was not trained on)."""
+    parser.add_argument("--aircraft", default=default,
+                        help="the aircraft flown: a packaged aircraft's name or a folder built by "
+                             f"scripts/build_aircraft.py --out (default: the paper's, solar_uav); {where}")
+    parser.add_argument("--transfer", action="store_true",
+                        help="fly a policy on an aircraft it was not trained on (a transfer experiment)")
+
+
 def name_list(text: str, allowed, option: str) -> list[str]:
     """A comma-separated list of names, each one of ``allowed`` and each once (a command's
     ``--controllers A,B``); ``ValueError`` naming ``option`` otherwise."""
