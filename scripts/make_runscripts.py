@@ -1,6 +1,7 @@
 """Rewrite the trimmed initial conditions and the doublet runscripts (see jsbsim_env.analysis.runscripts).
 
-    python scripts/make_runscripts.py
+    python scripts/make_runscripts.py                    # the paper's aircraft, in the repository
+    python scripts/make_runscripts.py --aircraft DIR     # an aircraft built into DIR, there
 
 Rewriting them is the command's purpose: the files are generated from the model and kept in git,
 so a run again regenerates them (the same files for the same model).
@@ -15,13 +16,23 @@ REPO_ROOT = Path(__file__).resolve().parents[1]
 
 def main(argv: list[str] | None = None) -> int:
     parser = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
-    parser.parse_args(argv)  # no options: --help describes the command instead of running it
+    parser.add_argument("--aircraft", default=None,
+                        help="a folder built by scripts/build_aircraft.py --out: its files are written under its JSBSim "
+                             "root (default: the paper's aircraft, in the repository)")
+    args = parser.parse_args(argv)
+    from aircraft import AircraftError, load_aircraft
     from jsbsim_env.analysis.runscripts import generated_files
 
-    for rel, text in generated_files().items():
-        path = REPO_ROOT / rel
+    try:
+        flown = load_aircraft(args.aircraft)
+    except AircraftError as err:
+        parser.exit(2, f"make_runscripts: --aircraft: {err}\n")
+    root = REPO_ROOT if args.aircraft is None else flown.root
+    for rel, text in generated_files(flown=flown).items():
+        path = root / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(text)
-        print(f"wrote {rel}")
+        print(f"wrote {path}")
     return 0
 
 

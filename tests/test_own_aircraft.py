@@ -49,6 +49,12 @@ def test_the_small_example_builds_loads_in_jsbsim_and_trims_across_its_envelope(
     # The trim's angle of attack is the analysis's cruise angle of attack.
     cruise_alpha = aero_data.load(small / "aero_data.json")["stability"]["cruise_alpha_deg"]
     assert cruise.alpha_deg == pytest.approx(cruise_alpha, abs=0.5)
+    # The standalone JSBSim runs: trimmed initial conditions and doublets at 1.5 and 3 km.
+    assert sorted(p.name for p in (small / "scripts").glob("*.xml")) == ["cruise_1500m_doublets.xml",
+                                                                         "cruise_3000m_doublets.xml"]
+    assert '<use aircraft="small_solar_uav" initialize="cruise_1500m"/>' in (
+        small / "scripts" / "cruise_1500m_doublets.xml").read_text()
+    assert (folder / "cruise_1500m.xml").is_file() and "## Standalone JSBSim runs" in report
     # Its own envelope: the paper's 10 km is outside it.
     with pytest.raises(Exception, match="outside the flight envelope 0-3000 m"):
         sim.trim(10_000.0, 12.0)
