@@ -115,9 +115,9 @@ def _aircraft_folder(spec: str) -> Path:
     holding one aircraft) names; ``AircraftError`` otherwise."""
     path = Path(spec).expanduser()
     packaged = sorted(p.parent.name for p in Path(__file__).resolve().parent.glob(f"*/{ENVELOPE_FILE}"))
+    if spec in packaged:  # a name first: a folder of the same name in the working folder is not asked for
+        return aircraft_dir(spec)
     if not path.exists():
-        if spec in packaged:
-            return aircraft_dir(spec)
         raise AircraftError(f"aircraft {spec!r} is neither a packaged aircraft ({', '.join(packaged)}) nor a path "
                             "that exists: give a folder built by scripts/build_aircraft.py DESCRIPTION --out DIR")
     if path.is_file():

@@ -110,6 +110,8 @@ class Trainer:
     def __init__(self, config: TrainConfig, run_dir: Path | str, resume: bool = False):
         self.config = c = config
         c.validate()  # settings out of range, or changed since the configuration was made
+        # The aircraft as it reads from any folder (a built one by its absolute path), for resuming.
+        c.env.aircraft = load_aircraft(c.env.aircraft).spec
         check_device(c.device)
         self.version = version = task_version(c.env.task)
         self.run_dir = Path(run_dir)
