@@ -192,25 +192,18 @@ def test_the_suite_the_sweep_and_the_loop_bench_fly_it(small, load_script, tmp_p
     capsys.readouterr()
 
 
-def test_an_envelope_that_reaches_where_episodes_end_is_refused(small):
+def test_an_envelope_that_reaches_where_episodes_end_is_refused(small, tmp_path):
+    import shutil
+
     from jsbsim_env.sim.core import CoreConfig, Envelope, FlightCore
 
-    with pytest.raises(ValueError, match=r"small_solar_uav's envelope \(EAS 10-15 m/s, up to 3000 m\) reaches where "
-                                         r"an episode ends \(CoreConfig.envelope: EAS 4-14 m/s"):
-        FlightCore(CoreConfig(aircraft=str(small), envelope=Envelope(eas_range_mps=(4.0, 14.0))))
-
-
-def test_the_report_flies_the_papers_experiments_in_its_envelope(small, load_script, tmp_path, capsys):
-    out = tmp_path / "report"
-    report = load_script("report").main
-    assert report(["--aircraft", str(small), "--controllers", "PID,LQI", "--experiments", "route_10km,altitudes",
-                   "--quick", "--no-progress", "--out", str(out)]) == 0
-    metrics = json.loads((out / "metrics.json").read_text())
-    assert metrics["aircraft"]["name"] == "small_solar_uav" and "paper" not in metrics
-    assert metrics["aircraft"]["altitudes_m"] == {"1km": 150.0, "20km": 3000.0}
-    assert metrics["route_10km"]["LQI"]["ended_early"] is None or not metrics["route_10km"]["LQI"]["ended_early"]
-    text = (out / "report.md").read_text()
-    assert "Flown on `small_solar_uav`" in text and "| paper |" not in text
-    # The shipped policy (the RL rows by default) was trained on the paper's aircraft: refused up front.
-    assert report(["--aircraft", str(small), "--quick", "--out", str(tmp_path / "refused")]) == 2
-    assert "ask for a transfer experiment" in capsys.readouterr().err
+    # The small aircraft as if its envelope went to 30 m/s, past the flight core's 25 m/s.
+    fast = tmp_path / "aircraft" / "small_solar_uav"
+    shutil.copytree(small / "aircraft" / "small_solar_uav", fast)
+    record = json.loads((fast / aircraft.ENVELOPE_FILE).read_text())
+    (fast / aircraft.ENVELOPE_FILE).write_text(json.dumps({**record, "eas_range_mps": [10.0, 30.0]}))
+    with pytest.raises(ValueError, match=r"small_solar_uav's envelope \(EAS 10-30 m/s, up to 3000 m\) reaches "
+                                         r"where an episode ends \(CoreConfig.envelope: EAS 4-25 m/s"):
+        FlightCore(CoreConfig(aircraft=str(tmp_path)))
+    # An Envelope given on purpose is the user's: it flies, and ends where it says.
+    FlightCore(CoreConfig(aircraft=str(tmp_path), envelope=Envelope(eas_range_mps=(4.0, 40.0))))

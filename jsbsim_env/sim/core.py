@@ -237,15 +237,17 @@ class FlightCore:
         limits = self.sim.surface_limits_deg
         self._command_scale = (1.0 / limits["aileron"], 1.0 / limits["elevator"], 1.0 / limits["rudder"], 1.0)
         self.start_altitude_range_m, self.start_eas_range_mps = start_ranges(self.sim, self.span_m)
+        # The default ends must lie outside the aircraft's envelope; an Envelope given is the user's
+        # choice (the tests end episodes on purpose with one).
         ends = self.config.envelope
-        if not (ends.eas_range_mps[0] < self.aircraft.eas_range_mps[0]
+        if ends == Envelope() and not (ends.eas_range_mps[0] < self.aircraft.eas_range_mps[0]
                 and self.aircraft.eas_range_mps[1] < ends.eas_range_mps[1]
                 and self.aircraft.altitude_range_m[1] < ends.altitude_range_m[1]):
             raise ValueError(f"{self.aircraft.name}'s envelope (EAS {self.aircraft.eas_range_mps[0]:g}-"
                              f"{self.aircraft.eas_range_mps[1]:g} m/s, up to {self.aircraft.altitude_range_m[1]:g} m) "
                              f"reaches where an episode ends (CoreConfig.envelope: EAS {ends.eas_range_mps[0]:g}-"
                              f"{ends.eas_range_mps[1]:g} m/s, up to {ends.altitude_range_m[1]:g} m); give "
-                             "CoreConfig an Envelope that holds it")
+                             "CoreConfig an Envelope beyond it")
         for name, (low, high), limits, unit, why in (
                 ("altitude_range_m", self.altitude_range_m, self.start_altitude_range_m, "m", self._altitude_why),
                 ("eas_range_mps", self.eas_range_mps, self.start_eas_range_mps, "m/s", self._eas_why)):
