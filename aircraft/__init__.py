@@ -85,9 +85,8 @@ class Aircraft:
     @property
     def sample_altitudes_m(self) -> tuple[float, float, float]:
         """Three altitudes that span the envelope: 5 % up from its floor, its middle, its ceiling
-        (the paper's aircraft: 1, 10 and 20 km)."""
-        low, high = self.altitude_range_m
-        return low + 0.05 * (high - low), 0.5 * (low + high), high
+        (the paper's aircraft's 1, 10 and 20 km, ``altitude_like_m``)."""
+        return tuple(self.altitude_like_m(h) for h in (1000.0, 10000.0, 20000.0))
 
     def altitude_like_m(self, paper_altitude_m: float) -> float:
         """The altitude at the fraction of this aircraft's altitude range that ``paper_altitude_m`` is

@@ -207,3 +207,16 @@ def test_an_envelope_that_reaches_where_episodes_end_is_refused(small, tmp_path)
         FlightCore(CoreConfig(aircraft=str(tmp_path)))
     # An Envelope given on purpose is the user's: it flies, and ends where it says.
     FlightCore(CoreConfig(aircraft=str(tmp_path), envelope=Envelope(eas_range_mps=(4.0, 40.0))))
+
+
+def test_a_damaged_envelope_record_is_refused_naming_the_file(small, tmp_path):
+    import shutil
+
+    for i, (key, bad) in enumerate((("eas_range_mps", [15.0, 10.0]), ("surface_limits_deg", {"aileron": 25.0}),
+                                    ("altitude_range_m", "low"))):
+        folder = tmp_path / f"root{i}" / "aircraft" / "small_solar_uav"
+        shutil.copytree(small / "aircraft" / "small_solar_uav", folder)
+        record = json.loads((folder / aircraft.ENVELOPE_FILE).read_text())
+        (folder / aircraft.ENVELOPE_FILE).write_text(json.dumps({**record, key: bad}))
+        with pytest.raises(aircraft.AircraftError, match=r"envelope.json.*build the aircraft again"):
+            aircraft.load_aircraft(folder)
