@@ -77,6 +77,11 @@ class Aircraft:
         """Whether this is an aircraft that ships with the package (the paper's)."""
         return self.root == jsbsim_root()
 
+    @property
+    def papers(self) -> bool:
+        """Whether this is the paper's aircraft as it ships (its experiments, figures and gain tables)."""
+        return self.packaged and self.name == AIRCRAFT_NAME
+
     @functools.cached_property
     def fingerprint(self) -> str:
         """``model_fingerprint`` of its folder: what tells one aircraft from another."""

@@ -53,7 +53,7 @@ RUNS = (DoubletRun("cruise_10km_doublets", 10000.0, 10.0), DoubletRun("cruise_20
 def runs_for(flown: aircraft.Aircraft) -> tuple[DoubletRun, ...]:
     """``RUNS`` for the paper's aircraft; for another, the same at the middle and the ceiling of its
     envelope (``Aircraft.altitude_like_m``) at its reference EAS, named by their altitude in m."""
-    if flown.packaged and flown.name == aircraft.AIRCRAFT_NAME:
+    if flown.papers:
         return RUNS
     return tuple(DoubletRun(f"cruise_{flown.altitude_like_m(run.altitude_m):.0f}m_doublets",
                             flown.altitude_like_m(run.altitude_m), flown.reference_eas_mps) for run in RUNS)

@@ -16,7 +16,7 @@ def design_classical(aircraft: Aircraft | Path | str, log=print) -> dict[str, Pa
     the files. The paper's aircraft's tables ship with the package and are not rewritten here
     (``scripts/tune_pid.py``, ``scripts/tune_lqi.py``)."""
     found = load_aircraft(aircraft)
-    if gain_files.is_paper_aircraft(found):
+    if found.papers:
         raise ValueError("the paper's aircraft's gain tables ship with the package: scripts/tune_pid.py and "
                          "scripts/tune_lqi.py write them")
     altitudes = gain_files.design_altitudes_m(found)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from aircraft import AIRCRAFT_NAME, Aircraft, load_aircraft
+from aircraft import Aircraft, load_aircraft
 
 PACKAGED_DIR = Path(__file__).parent  # the paper's aircraft's tables, kept in git
 FILES = {"pid": "pid_gains.json", "lqi": "lqi_gains.json", "pid_tuned": "pid_tuned_gains.json",
@@ -24,17 +24,13 @@ class GainsMissing(FileNotFoundError):
     """A controller asked for on an aircraft whose gain table has not been written."""
 
 
-def is_paper_aircraft(aircraft: Aircraft) -> bool:
-    return aircraft.packaged and aircraft.name == AIRCRAFT_NAME
-
-
 def gain_file_path(kind: str, aircraft: Aircraft | str | Path | None = None) -> Path:
     """Where the ``kind`` (``FILES``) table of ``aircraft`` (the paper's by default) is kept, whether
     or not it has been written."""
     if kind not in FILES:
         raise ValueError(f"gain table kind must be one of {', '.join(FILES)}, got {kind!r}")
     found = load_aircraft(aircraft)
-    return (PACKAGED_DIR if is_paper_aircraft(found) else found.folder) / FILES[kind]
+    return (PACKAGED_DIR if found.papers else found.folder) / FILES[kind]
 
 
 def gain_file(kind: str, aircraft: Aircraft | str | Path | None = None) -> Path:
@@ -45,7 +41,7 @@ def gain_file(kind: str, aircraft: Aircraft | str | Path | None = None) -> Path:
         found = load_aircraft(aircraft)
         if kind.endswith("_tuned"):
             how = (f"`python scripts/tune_classical.py --controller {kind.removesuffix('_tuned')}"
-                   + ("" if is_paper_aircraft(found) else f" --aircraft {found.root}") + "`")
+                   + ("" if found.papers else f" --aircraft {found.root}") + "`")
         else:
             how = "`python scripts/build_aircraft.py DESCRIPTION --out DIR` (it designs the PID and the LQI)"
         raise GainsMissing(f"{kind}: {found.describe()} has no gain table {path}: write it with {how}")
@@ -60,4 +56,4 @@ def design_altitudes_m(aircraft: Aircraft) -> tuple[float, ...]:
 
 
 __all__ = ["DESIGN_ALTITUDE_FRACTIONS", "FILES", "PACKAGED_DIR", "GainsMissing", "design_altitudes_m", "gain_file",
-           "gain_file_path", "is_paper_aircraft"]
+           "gain_file_path"]

@@ -82,7 +82,7 @@ def check_aircraft(meta: dict, path: Path, flown: Aircraft) -> None:
     aircraft than the paper's."""
     name, model = trained_aircraft(meta, path)
     if model is None:
-        same = flown.packaged and flown.name == AIRCRAFT_NAME
+        same = flown.papers
         trained = f"{name} (a file that records no model)"
     else:
         same = model == flown.fingerprint

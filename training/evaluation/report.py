@@ -315,7 +315,7 @@ def run_report(out_dir: Path | str, policy_path: Path | str | None = None, quick
     out.mkdir(parents=True, exist_ok=True)
     plan = ReportPlan.quick() if quick else ReportPlan()
     flown = aircraft.load_aircraft(aircraft_spec)
-    papers = flown.packaged and flown.name == aircraft.AIRCRAFT_NAME  # the paper's figures are its aircraft's
+    papers = flown.papers  # the paper's figures are its aircraft's
     at = flown.altitude_like_m
     makers, policy_file = _controllers(policy_path, flown.spec, transfer)
     makers = {name: make for name, make in makers.items() if name in controllers}
