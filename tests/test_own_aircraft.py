@@ -155,7 +155,7 @@ def test_the_benchmark_and_the_tuning_fly_the_papers_conditions_in_its_envelope(
     flights = heldout_flights(quick=True, aircraft=small)
     assert {name: f.altitude_m for name, f in flights.items()} == {
         "turbulent_5km": 750.0, "positive_3km": 450.0, "negative_3km": 450.0, "calm_15km": 2250.0}
-    assert all(f.eas_mps == 12.0 and f.aircraft == str(small) for f in flights.values())
+    assert all(f.eas_mps == 12.0 and f.aircraft == str(small / "aircraft" / "small_solar_uav") for f in flights.values())
     jobs = jobs_for(["steps"], ["lqi"], 1, quick=True, aircraft=str(small))
     assert {j.aircraft for j in jobs} == {str(small)} and len(jobs) == 4
     (row,) = run_benchmark_job(BenchJob("turbulence", {"altitude_m": 1500.0}, "lqi", 0, quick=True,

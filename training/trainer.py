@@ -32,7 +32,7 @@ from torchrl.collectors import Collector
 from torchrl.data import LazyTensorStorage, TensorDictReplayBuffer
 from torchrl.envs.utils import ExplorationType, set_exploration_type, step_mdp
 
-from aircraft import AIRCRAFT_NAME, load_aircraft
+from aircraft import load_aircraft
 from jsbsim_env.control.checked_io import DamagedFileError, checked_load
 from jsbsim_env.sim.core import CoreConfig
 from jsbsim_env.task.attitude import PRIVILEGED_SIZE, TaskConfig, goal_range
@@ -84,7 +84,7 @@ def resume_fingerprint(config: TrainConfig) -> str:
     # The aircraft by its model, not by the path it was given as; the paper's as runs from before the
     # setting recorded it (none), so that they resume.
     flown = load_aircraft(data["env"].pop("aircraft"))
-    if flown.name != AIRCRAFT_NAME or not flown.packaged:
+    if not flown.papers:
         data["env"]["aircraft_model"] = flown.fingerprint
     return config_fingerprint(data, ignore=("log", "device", "threads"))
 

@@ -48,7 +48,7 @@ def heldout_flights(quick: bool = False, aircraft=None) -> dict[str, RouteConfig
     for name, seed in SEEDS.items():  # the held-out flights choose seeds: never on the frozen test set
         check_not_test_seed(seed, f"held-out flights ({name})")
     flown = load_aircraft(aircraft)
-    base = RouteConfig(aircraft=str(aircraft or flown.name), eas_mps=flown.reference_eas_mps,
+    base = RouteConfig(aircraft=flown.spec, eas_mps=flown.reference_eas_mps,
                        duration_s=30.0 if quick else 1200.0)
     turbulent_legs = (0,) if quick else (1, 2, 3)
     at = flown.altitude_like_m

@@ -137,7 +137,7 @@ def doublet_runs(controller: AttitudeController, altitudes_m=None, plot_dir: Pat
     if altitudes_m is None:
         altitudes_m = tuple(flown.altitude_like_m(h) for h in DOUBLET_ALTITUDES_M)
     results = {}
-    ideal = CoreConfig.ideal(aircraft=str(aircraft or flown.name), perturb_attitude_deg=2.0, perturb_rate_degps=1.0,
+    ideal = CoreConfig.ideal(aircraft=flown.spec, perturb_attitude_deg=2.0, perturb_rate_degps=1.0,
                              perturb_eas_mps=0.5, max_steps=int(DOUBLET_END_S / 0.05) + 1)
     batch = AttitudeTaskBatch(1, TaskConfig(core=ideal))
     steps = int(DOUBLET_END_S / 0.05)
@@ -168,7 +168,7 @@ def suite_episodes(controller: AttitudeController, episodes: int = 50, progress:
     from training.evaluation.seeds import check_not_test_seed
 
     check_not_test_seed(range(EVAL_EPISODE_SEED, EVAL_EPISODE_SEED + episodes), "evaluation suite")
-    batch = AttitudeTaskBatch(1, TaskConfig(core=CoreConfig(aircraft=str(aircraft or load_aircraft().name))))
+    batch = AttitudeTaskBatch(1, TaskConfig(core=CoreConfig(aircraft=load_aircraft(aircraft).spec)))
     rows, early, reasons = [], 0, []
     iterator = range(episodes)
     if progress:
