@@ -43,10 +43,13 @@ def main(argv: list[str] | None = None) -> int:
         lines += ["", "## Standalone JSBSim runs", "", *(f"- `{rel}`" for rel in runs if rel.startswith("scripts/")),
                   "", f"Run one from `{args.out}`: `jsbsim --root . scripts/NAME.xml`."]
     if not args.no_survey:
-        from jsbsim_env.analysis.survey import envelope_survey, render_survey
+        from jsbsim_env.analysis.survey import envelope_survey, render_survey, render_trim_grid, trim_grid
 
         rows = envelope_survey(built.folder)
         lines += ["", "## Trims across the envelope, modes at the reference EAS", "", *render_survey(rows)]
+        lines += ["", "## The trim table", "", ("Every point of the grid the episodes start from "
+                  "(jsbsim_env.sim.trim_table): angle of attack / elevator (deg) / throttle."), "",
+                  *render_trim_grid(*trim_grid(built.folder))]
     text = "\n".join(lines) + "\n"
     print(text)
     if args.out is not None:

@@ -33,6 +33,8 @@ def test_the_small_example_builds_loads_in_jsbsim_and_trims_across_its_envelope(
     assert report.startswith("# small_solar_uav: build report") and "static margin 0.10 MAC" in report
     # The survey: a trim at the reference EAS at each altitude, and every mode named there.
     assert report.count("| 12.0 | 5.") == 3 and "short_period" in report and "dutch_roll" in report
+    # The run-time trim table's whole grid: 22 altitudes by 10-15 m/s in 1 m/s steps.
+    assert "## The trim table" in report and "132 of 132 points trimmed." in report
     folder = small / "aircraft" / "small_solar_uav"
     assert (folder / "small_solar_uav.xml").is_file() and (small / "aero_data.json").is_file()
     assert aircraft.model_fingerprint(folder=folder) != aircraft.model_fingerprint()

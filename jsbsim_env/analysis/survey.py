@@ -6,6 +6,10 @@ at each of the envelope's three sample altitudes (near the floor, 5 % up the ran
 ceiling) and three equivalent airspeeds (the envelope's lowest, the reference, its highest) it
 trims the aircraft, and at the reference EAS it names the linear modes
 (``jsbsim_env.analysis.modes``). A point without a trim is reported with the reason, not dropped.
+
+``trim_grid`` trims every point of the grid the run-time trim table interpolates
+(``jsbsim_env.sim.trim_table.grid``), so that a build shows where episodes can start before any
+flight needs it.
 """
 
 from __future__ import annotations
@@ -15,6 +19,7 @@ from pathlib import Path
 from aircraft import Aircraft
 from jsbsim_env.analysis.modes import LinearisationError, linear_modes
 from jsbsim_env.sim.simulation import Simulation, TrimError
+from jsbsim_env.sim.trim_table import grid
 
 
 def survey_points(aircraft: Aircraft) -> list[tuple[float, float]]:
@@ -40,6 +45,36 @@ def envelope_survey(aircraft: Aircraft | Path | str) -> list[dict]:
             row["error"] = str(err)
         rows.append(row)
     return rows
+
+
+def trim_grid(aircraft: Aircraft | Path | str) -> tuple[list[float], list[float], dict]:
+    """The trim table's altitudes (m) and EAS (m/s) for ``aircraft``, and each point's trim
+    (``TrimResult``) or error text, keyed by (altitude, EAS)."""
+    sim = Simulation(aircraft)
+    altitudes, speeds = (list(map(float, axis)) for axis in grid(sim.aircraft.altitude_range_m,
+                                                                    sim.aircraft.eas_range_mps))
+    cells: dict = {}
+    for h in altitudes:
+        for v in speeds:
+            try:
+                cells[h, v] = sim.trim(h, v)
+            except TrimError as err:
+                cells[h, v] = str(err)
+    return altitudes, speeds, cells
+
+
+def render_trim_grid(altitudes: list[float], speeds: list[float], cells: dict) -> list[str]:
+    """Markdown lines: one row per altitude, one column per EAS, each cell α / elevator (deg) /
+    throttle, or "no trim"; then the count of points without one."""
+    lines = ["| altitude, m | " + " | ".join(f"{v:g} m/s" for v in speeds) + " |", "|---:|" + "---|" * len(speeds)]
+    for h in altitudes:
+        row = ["no trim" if isinstance(cell, str) else f"{cell.alpha_deg:.1f} / {cell.elevator_deg:.1f} / {cell.throttle:.2f}"
+               for cell in (cells[h, v] for v in speeds)]
+        lines.append(f"| {h:.0f} | " + " | ".join(row) + " |")
+    missing = [f"{h:g} m, {v:g} m/s: {cells[h, v]}" for h in altitudes for v in speeds if isinstance(cells[h, v], str)]
+    lines += ["", f"{len(altitudes) * len(speeds) - len(missing)} of {len(altitudes) * len(speeds)} points trimmed."]
+    lines += [f"- {m}" for m in missing]
+    return lines
 
 
 def _mode_text(mode: dict) -> str:
@@ -72,4 +107,4 @@ def render_survey(rows: list[dict]) -> list[str]:
     return lines
 
 
-__all__ = ["envelope_survey", "render_survey", "survey_points"]
+__all__ = ["envelope_survey", "render_survey", "render_trim_grid", "survey_points", "trim_grid"]
