@@ -170,7 +170,8 @@ def main(argv=None) -> int:
     summary = summarise(rows, controllers, args.method)
     record = {"command": command, "backend": args.backend, "cores": info["cpus"], "wall_s": wall_s,
               "flights": len(rows), "controllers": controllers, "families": families, "episodes": args.episodes,
-              "split": args.split, "aircraft": flown_aircraft.name, "aircraft_model": flown_aircraft.fingerprint, "seeds": [SPLITS[args.split].start, SPLITS[args.split].start + args.episodes - 1],
+              "split": args.split, "aircraft": flown_aircraft.name, "aircraft_model": flown_aircraft.fingerprint,
+              "seeds": [SPLITS[args.split].start, SPLITS[args.split].start + args.episodes - 1],
               "method": args.method,
               "quick": args.quick, "plan": plan_dict(args.quick), "summary": summary,
               "selection": [{"controller": c, **s} for c, s in selection.rank(summary, *selection.sides(controllers))]}

@@ -15,7 +15,7 @@ unit and scale) and action (4,) float32 in [-1, 1] as described in ``jsbsim_env.
 ``info`` carries every reward term, the termination reason and the true state. Pass
 ``config=TaskConfig(...)`` to ``gym.make`` to change the task, and ``aircraft=`` (a packaged
 aircraft's name or a built aircraft's folder, ``aircraft.load_aircraft``) to fly the task on
-another aircraft: ``gym.make("SolarUAVAttitude-v1", aircraft="runs/small")``.
+another aircraft: ``gym.make("SolarUAVAttitude-v1", aircraft="builds/my_uav")``.
 """
 
 from __future__ import annotations
