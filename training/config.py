@@ -25,7 +25,7 @@ import re
 from dataclasses import dataclass, field, fields
 from typing import Any, get_args, get_origin, get_type_hints
 
-from aircraft import AIRCRAFT_NAME, AircraftError, load_aircraft
+from aircraft import AIRCRAFT_NAME, load_aircraft
 from jsbsim_env.task.versions import LATEST, task_version
 
 SEED_MAX = 2**64 - 1  # the largest seed torch takes
@@ -138,41 +138,47 @@ class Choice(Allowed):
 
 
 @dataclass(frozen=True)
-class TaskName(Allowed):
-    """A task version this package has (``task_version``'s error lists them)."""
-
-    text: str = "the name of a task version (jsbsim_env.task.versions)"
+class _LookedUp(Allowed):
+    """A text that ``lookup`` finds; where it does not, its error (a ``ValueError`` that says what
+    the value is instead), naming the setting."""
 
     def admits(self, value) -> bool:
         return isinstance(value, str)
+
+    def lookup(self, value: str) -> None:
+        raise NotImplementedError
 
     def problem(self, name: str, value) -> str | None:
         if not self.admits(value):
             return super().problem(name, value)
         try:
-            task_version(value)
+            self.lookup(value)
         except ValueError as err:
             return f"{name}: {err}"
         return None
 
 
 @dataclass(frozen=True)
-class AircraftName(Allowed):
-    """An aircraft ``aircraft.load_aircraft`` finds (its error says what the value is instead)."""
+class TaskName(_LookedUp):
+    """A task version this package has (``task_version``'s error lists them)."""
+
+    text: str = "the name of a task version (jsbsim_env.task.versions)"
+
+    def lookup(self, value: str) -> None:
+        task_version(value)
+
+
+@dataclass(frozen=True)
+class AircraftName(_LookedUp):
+    """An aircraft ``aircraft.load_aircraft`` finds (its ``AircraftError`` says what the value is instead)."""
 
     text: str = "a packaged aircraft's name or a built aircraft's folder (scripts/build_aircraft.py --out)"
 
     def admits(self, value) -> bool:
         return isinstance(value, str) and value != "" and "\0" not in value
 
-    def problem(self, name: str, value) -> str | None:
-        if not self.admits(value):
-            return super().problem(name, value)
-        try:
-            load_aircraft(value)
-        except AircraftError as err:
-            return f"{name}: {err}"
-        return None
+    def lookup(self, value: str) -> None:
+        load_aircraft(value)
 
 
 _DEVICE = re.compile(r"cpu|cuda(:[0-9]+)?")
