@@ -28,6 +28,17 @@ ENVELOPE_FILE = "envelope.json"
 """In every aircraft folder: where the aircraft flies (``Aircraft``), written by its build."""
 SURFACES = ("aileron", "elevator", "rudder")
 PAPER_ALTITUDE_RANGE_M = (0.0, 20000.0)  # the paper's aircraft's envelope, where its experiments fly
+PAPER_SAMPLE_ALTITUDES_M = (1000.0, 10000.0, 20000.0)  # near its floor, its middle, its ceiling
+
+
+def altitude_like_m(paper_altitude_m: float, altitude_range_m: tuple[float, float]) -> float:
+    """The altitude at the fraction of ``altitude_range_m`` that ``paper_altitude_m`` is of the
+    paper's 0-20 km: where an aircraft with that range flies what the paper's flies at
+    ``paper_altitude_m`` (1, 10, 20 km: 5 % up, the middle, the ceiling); itself for the paper's range."""
+    (p0, p1), (a0, a1) = PAPER_ALTITUDE_RANGE_M, altitude_range_m
+    if (a0, a1) == (p0, p1):
+        return paper_altitude_m
+    return a0 + (paper_altitude_m - p0) / (p1 - p0) * (a1 - a0)
 
 
 def jsbsim_root() -> Path:
@@ -90,18 +101,13 @@ class Aircraft:
     @property
     def sample_altitudes_m(self) -> tuple[float, float, float]:
         """Three altitudes that span the envelope: 5 % up from its floor, its middle, its ceiling
-        (the paper's aircraft's 1, 10 and 20 km, ``altitude_like_m``)."""
-        return tuple(self.altitude_like_m(h) for h in (1000.0, 10000.0, 20000.0))
+        (the paper's aircraft's 1, 10 and 20 km)."""
+        return tuple(self.altitude_like_m(h) for h in PAPER_SAMPLE_ALTITUDES_M)
 
     def altitude_like_m(self, paper_altitude_m: float) -> float:
-        """The altitude at the fraction of this aircraft's altitude range that ``paper_altitude_m`` is
-        of the paper's 0-20 km: where this aircraft flies an experiment the paper's flies at
-        ``paper_altitude_m`` (1, 10, 20 km: 5 % up, the middle, the ceiling); itself on an
-        aircraft with the paper's range."""
-        (p0, p1), (a0, a1) = PAPER_ALTITUDE_RANGE_M, self.altitude_range_m
-        if (a0, a1) == (p0, p1):
-            return paper_altitude_m
-        return a0 + (paper_altitude_m - p0) / (p1 - p0) * (a1 - a0)
+        """Where this aircraft flies an experiment the paper's flies at ``paper_altitude_m``
+        (``altitude_like_m``)."""
+        return altitude_like_m(paper_altitude_m, self.altitude_range_m)
 
     @property
     def spec(self) -> str:

@@ -111,8 +111,8 @@ def test_the_commands_reach_the_surfaces_as_the_aircraft_limits_them(small):
 
 
 def test_its_classical_controllers_are_designed_for_it_and_fly_it(small):
+    from jsbsim_env.control.classical_design import design_altitudes_m
     from jsbsim_env.control.factory import make_controller
-    from jsbsim_env.control.gain_files import design_altitudes_m
     from jsbsim_env.sim.core import CoreConfig
     from jsbsim_env.task.attitude import AttitudeTaskBatch, TaskConfig
     from training.evaluation.suite import fly

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from .. import PAPER_SAMPLE_ALTITUDES_M, altitude_like_m
 from .propeller import PropellerGeometry
 
 
@@ -97,9 +98,8 @@ class FlightEnvelope:
     @property
     def sample_altitudes_m(self) -> tuple[float, float, float]:
         """Three altitudes that span the envelope: near its floor (5 % up the range), its middle and
-        its ceiling; the model's initial conditions and its build survey fly them."""
-        low, high = self.altitude_range_m
-        return low + 0.05 * (high - low), 0.5 * (low + high), high
+        its ceiling (``aircraft.Aircraft.sample_altitudes_m``); the model's initial conditions fly them."""
+        return tuple(altitude_like_m(h, self.altitude_range_m) for h in PAPER_SAMPLE_ALTITUDES_M)
 
 
 @dataclass(frozen=True)

@@ -15,9 +15,6 @@ from aircraft import Aircraft, load_aircraft
 PACKAGED_DIR = Path(__file__).parent  # the paper's aircraft's tables, kept in git
 FILES = {"pid": "pid_gains.json", "lqi": "lqi_gains.json", "pid_tuned": "pid_tuned_gains.json",
          "lqi_tuned": "lqi_tuned_gains.json"}
-# The paper's design altitudes (500 m to 20 km) as fractions of an envelope's altitude range above
-# its floor: dense low down, where the dynamic pressure's effect on the true airspeed changes fastest.
-DESIGN_ALTITUDE_FRACTIONS = (0.025, 0.05, 0.1, 0.25, 0.5, 0.75, 1.0)
 
 
 class GainsMissing(FileNotFoundError):
@@ -48,12 +45,4 @@ def gain_file(kind: str, aircraft: Aircraft | str | Path | None = None) -> Path:
     return path
 
 
-def design_altitudes_m(aircraft: Aircraft) -> tuple[float, ...]:
-    """Where the classical controllers are designed: ``DESIGN_ALTITUDE_FRACTIONS`` of the envelope
-    (the paper's aircraft: 500, 1,000, 2,000, 5,000, 10,000, 15,000 and 20,000 m)."""
-    low, high = aircraft.altitude_range_m
-    return tuple(low + f * (high - low) for f in DESIGN_ALTITUDE_FRACTIONS)
-
-
-__all__ = ["DESIGN_ALTITUDE_FRACTIONS", "FILES", "PACKAGED_DIR", "GainsMissing", "design_altitudes_m", "gain_file",
-           "gain_file_path"]
+__all__ = ["FILES", "PACKAGED_DIR", "GainsMissing", "gain_file", "gain_file_path"]
