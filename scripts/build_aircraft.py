@@ -3,8 +3,8 @@
 With ``--out DIR`` it then designs the aircraft's classical controllers, the PID and the LQI, by
 the procedures that designed the paper's aircraft's (``jsbsim_env.control.classical_design``), into
 its folder, and writes the standalone JSBSim runs (``jsbsim_env.analysis.runscripts``: trimmed
-initial conditions and doublet runscripts, ``DIR/scripts/*.xml``). Then the build report: the stability figures and the analysis's checks, and the built
-model's survey (trims across its envelope, linear modes at cruise; ``jsbsim_env.analysis.survey``),
+initial conditions and doublet runscripts, ``DIR/scripts/*.xml``). Then the build report: the
+stability figures and the analysis's checks, and the built model's survey (trims across its envelope, linear modes at cruise; ``jsbsim_env.analysis.survey``),
 printed and, with ``--out DIR``, written to ``DIR/build_report.md``.
 """
 
@@ -34,12 +34,11 @@ def main(argv: list[str] | None = None) -> int:
         design_classical(built.folder, log=lambda line: (print(line, flush=True), designed.append(line)))
         lines += ["", "## Classical controllers", "", *(f"- {line}" for line in designed)]
     if args.out is not None:
+        from aircraft.design.xml_writer import write
         from jsbsim_env.analysis.runscripts import generated_files
 
         runs = generated_files(flown=built.folder)
-        for rel, text in runs.items():
-            (args.out / rel).parent.mkdir(parents=True, exist_ok=True)
-            (args.out / rel).write_text(text)
+        write(runs, args.out)
         lines += ["", "## Standalone JSBSim runs", "", *(f"- `{rel}`" for rel in runs if rel.startswith("scripts/")),
                   "", f"Run one from `{args.out}`: `jsbsim --root . scripts/NAME.xml`."]
     if not args.no_survey:

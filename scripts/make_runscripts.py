@@ -21,6 +21,7 @@ def main(argv: list[str] | None = None) -> int:
                              "root (default: the paper's aircraft, in the repository)")
     args = parser.parse_args(argv)
     from aircraft import AircraftError, load_aircraft
+    from aircraft.design.xml_writer import write
     from jsbsim_env.analysis.runscripts import generated_files
 
     try:
@@ -28,11 +29,10 @@ def main(argv: list[str] | None = None) -> int:
     except AircraftError as err:
         parser.exit(2, f"make_runscripts: --aircraft: {err}\n")
     root = REPO_ROOT if args.aircraft is None else flown.root
-    for rel, text in generated_files(flown=flown).items():
-        path = root / rel
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(text)
-        print(f"wrote {path}")
+    files = generated_files(flown=flown)
+    write(files, root)
+    for rel in files:
+        print(f"wrote {root / rel}")
     return 0
 
 
