@@ -55,8 +55,8 @@ def runs_for(flown: aircraft.Aircraft) -> tuple[DoubletRun, ...]:
     envelope (``Aircraft.altitude_like_m``) at its reference EAS, named by their altitude in m."""
     if flown.papers:
         return RUNS
-    return tuple(DoubletRun(f"cruise_{flown.altitude_like_m(run.altitude_m):.0f}m_doublets",
-                            flown.altitude_like_m(run.altitude_m), flown.reference_eas_mps) for run in RUNS)
+    altitudes = (flown.altitude_like_m(run.altitude_m) for run in RUNS)
+    return tuple(DoubletRun(f"cruise_{h:.0f}m_doublets", h, flown.reference_eas_mps) for h in altitudes)
 
 # Logged at OUTPUT_RATE_HZ to <run name>.csv in the working directory.
 LOGGED_PROPERTIES = (

@@ -339,7 +339,8 @@ class Simulation:
         rpm_per_tas = self._rpm_per_tas_mps or ROTOR_RPM_GUESS_PER_TAS_MPS
         throttle_guess = rpm_per_tas * tas_mps / self.fdm["fcs/rotor-speed-full-rpm"]
         x, r = self._newton(altitude_m, tas_mps, float(np.clip(throttle_guess, 0.05, 0.9)), max_iterations)
-        if not _trimmed(r):
+        restarted = not _trimmed(r)
+        if restarted:
             # That start suits the paper's propellers; another aircraft's may windmill there. Start
             # again at zero angle of attack from the highest throttle where the speed stops falling
             # (at lower throttles a windmilling or idling rotor's drag can balance too).
@@ -348,9 +349,6 @@ class Simulation:
             crossings = np.flatnonzero((udot[:-1] < 0.0) & (udot[1:] >= 0.0))
             start = scan[crossings[-1] + 1] if crossings.size else scan[int(np.argmin(np.abs(udot)))]
             x, r = self._newton(altitude_m, tas_mps, float(start), max_iterations)
-            restarted = True
-        else:
-            restarted = False
         if not _trimmed(r):
             names = ("angle of attack", "elevator", "throttle")
             pinned = [n for n, v, lo, hi in zip(names, x, *_TRIM_BOUNDS) if v <= lo + 1e-9 or v >= hi - 1e-9]

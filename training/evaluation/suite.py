@@ -25,6 +25,7 @@ Another aircraft (``aircraft``) flies the doublets at the same fractions of its 
 
 from __future__ import annotations
 
+import functools
 import math
 from pathlib import Path
 
@@ -49,6 +50,7 @@ EVAL_EPISODE_SEED = 777
 DOUBLET_EAS_MPS = 10.0  # the EAS of DOUBLET_STEPS: another reference EAS shifts its EAS steps alike
 
 
+@functools.cache  # read by the goal every control step
 def doublet_steps(eas_mps: float = DOUBLET_EAS_MPS) -> tuple:
     """``DOUBLET_STEPS`` about a reference EAS of ``eas_mps`` (itself at 10 m/s)."""
     return tuple((c, t, v + eas_mps - DOUBLET_EAS_MPS if c == 2 else v) for c, t, v in DOUBLET_STEPS)
