@@ -30,7 +30,7 @@ import time
 from pathlib import Path
 
 # None of these loads torch, ray or onnxruntime: those load when flying, after the arguments are parsed.
-from aircraft import AIRCRAFT_NAME, load_aircraft
+from aircraft import load_aircraft
 from jsbsim_env.control.factory import CONTROLLER_NAMES, check_flyable
 from jsbsim_env.control.gain_files import GainsMissing
 from jsbsim_env.task.metrics import json_ready
@@ -67,7 +67,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
     p.add_argument("--controllers", default=",".join(CONTROLLER_NAMES),
                    help=f"comma-separated, any of: {', '.join(CONTROLLER_NAMES)}")
-    add_aircraft_options(p, "the families fly at the same fractions of its envelope", default=AIRCRAFT_NAME)
+    add_aircraft_options(p, "the families fly at the same fractions of its envelope")
     p.add_argument("--policy", default=None, help="policy file (.pt); the shipped policy when omitted")
     p.add_argument("--compare", nargs="+", type=Path, default=(), metavar="POLICY",
                    help="more policy files, each flown as a controller of its own (named by its run folder, or its "

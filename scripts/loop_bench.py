@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from aircraft import AIRCRAFT_NAME, load_aircraft
+from aircraft import load_aircraft
 from training.runtime import (
     OutputFolderError,
     ScriptParser,
@@ -56,7 +56,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--controller", choices=("policy", "pid", "lqi", "pid_tuned", "lqi_tuned"), default="policy",
                    help="the controller process flies this (factory.CONTROLLER_NAMES)")
     p.add_argument("--policy", default=None, help="policy file (.pt); the shipped policy when omitted")
-    add_aircraft_options(p, "the route flies at the middle of its envelope", default=AIRCRAFT_NAME)
+    add_aircraft_options(p, "the route flies at the middle of its envelope")
     p.add_argument("--duration", type=number_type(float, 0.0, MAX_DURATION_S, low_open=True, unit="s"), default=60.0,
                    help="flight time, s")
     p.add_argument("--baud", type=positive_int, default=115_200,

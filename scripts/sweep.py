@@ -30,7 +30,6 @@ from pathlib import Path
 import numpy as np
 
 # None of these loads torch, ray or onnxruntime: those load when flying, after the arguments are parsed.
-from aircraft import AIRCRAFT_NAME, load_aircraft
 from jsbsim_env.control.factory import CONTROLLER_NAMES, check_flyable
 from jsbsim_env.control.gain_files import GainsMissing
 from jsbsim_env.task.metrics import json_ready
@@ -66,7 +65,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="an axis and its values (repeatable, each axis once): " + ", ".join(
                        f"{k} {AXIS_RANGES[k].text(v)}" for k, v in AXIS_UNITS.items()))
     p.add_argument("--controllers", default="policy,pid", help=f"comma-separated, any of: {', '.join(CONTROLLER_NAMES)}")
-    add_aircraft_options(p, "the altitude and EAS axes take its envelope", default=AIRCRAFT_NAME)
+    add_aircraft_options(p, "the altitude and EAS axes take its envelope")
     p.add_argument("--policy", default=None, help="policy file (.pt); the shipped policy when omitted")
     p.add_argument("--episodes", type=positive_int, default=10, help="seeded episodes per controller and condition")
     p.add_argument("--out", type=Path, default=Path("runs/sweep"), help="folder for the table, JSON and plots")
@@ -126,7 +125,6 @@ def plot_axis(rows: list[dict], axis: str, path: Path) -> None:
 def main(argv=None) -> int:
     args = parse_args(argv)
     try:
-        load_aircraft(args.aircraft)
         axes = parse_axes(args.axis, args.aircraft)
         if not axes:
             raise ValueError("give at least one --axis NAME=V1,V2,...")

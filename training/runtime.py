@@ -19,6 +19,8 @@ import warnings
 from collections.abc import Iterable
 from pathlib import Path
 
+from aircraft import AIRCRAFT_NAME
+
 # glibc's mallopt parameters (malloc.h).
 M_TRIM_THRESHOLD = -1
 M_MMAP_THRESHOLD = -3
@@ -214,10 +216,10 @@ def number_type(kind: type = float, low: float | None = None, high: float | None
     return convert
 
 
-def add_aircraft_options(parser: argparse.ArgumentParser, where: str, default: str | None = None) -> None:
+def add_aircraft_options(parser: argparse.ArgumentParser, where: str) -> None:
     """``--aircraft`` (the aircraft flown; ``where`` says how the command's flights move into its
     envelope) and ``--transfer`` (a policy flown on an aircraft it was not trained on)."""
-    parser.add_argument("--aircraft", default=default,
+    parser.add_argument("--aircraft", default=AIRCRAFT_NAME,
                         help="the aircraft flown: a packaged aircraft's name or a folder built by "
                              f"scripts/build_aircraft.py --out (default: the paper's, solar_uav); {where}")
     parser.add_argument("--transfer", action="store_true",
