@@ -31,7 +31,7 @@ import numpy as np
 
 # Only numpy and training.runtime (no torch, no simulation) load before the arguments are parsed,
 # so that a mistyped option is refused at once; the flights' modules load where they are flown.
-from training.runtime import OutputFolderError, ScriptParser, check_output_folder, positive_int
+from training.runtime import OutputFolderError, ScriptParser, check_output_folder, positive_int, run_command
 
 # Scorecard sections (named by the key each adds to the scorecard) and the report experiments
 # they are flown with; a cached scorecard that lacks a section gets only that section's flights.
@@ -311,4 +311,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_command(main, __file__)

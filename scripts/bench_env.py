@@ -22,7 +22,6 @@ length like those of a trained policy. Ratios are env / raw (and env / flight).
 from __future__ import annotations
 
 import json
-import multiprocessing
 import statistics
 import time
 
@@ -32,7 +31,8 @@ from jsbsim_env.control.observation import ACTION_OFFSET, ACTION_SCALE, command_
 from jsbsim_env.sim.core import CoreConfig, FlightCore
 from jsbsim_env.sim.trim_table import TrimTable
 from jsbsim_env.task.attitude import AttitudeTask
-from training.runtime import ScriptParser, non_negative_int, positive_float, positive_int
+from training.runtime import ScriptParser, non_negative_int, positive_float, positive_int, run_command
+from training.workers import process_pool
 
 # torch and TorchRL (SolarUAVAttitudeEnv) load in the functions that use them, after the arguments
 # are parsed.
@@ -123,9 +123,9 @@ def _worker(args) -> tuple[float, float]:
 def processes_rate(processes: int, batch: int, seconds: float, seed: int) -> float:
     """Simulated seconds per wall second of ``processes`` processes, each a batched environment
     (what a multi-process collector gets on this machine)."""
-    with multiprocessing.get_context("spawn").Pool(processes) as pool:
+    with process_pool(processes) as pool:
         t0 = time.perf_counter()
-        results = pool.map(_worker, [(batch, seconds, seed + k) for k in range(processes)])
+        results = list(pool.map(_worker, [(batch, seconds, seed + k) for k in range(processes)]))
         wall = time.perf_counter() - t0
     # Start-up (imports, trim table) is excluded: each worker reports its own stepping time.
     return sum(sim for sim, _ in results) / max(w for _, w in results) if wall > 0 else 0.0
@@ -176,4 +176,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_command(main, __file__)

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from training.runtime import ScriptParser, number_type
+from training.runtime import ScriptParser, number_type, run_command
 
 # torch, onnxruntime and the policy runtime load in main(), after the arguments are parsed.
 
@@ -72,4 +72,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_command(main, __file__)

@@ -16,7 +16,7 @@ import time
 import jsbsim
 
 import aircraft
-from training.runtime import ScriptParser, positive_int
+from training.runtime import ScriptParser, positive_int, run_command
 
 SIM_RATE_HZ = 120.0
 
@@ -79,4 +79,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_command(main, __file__)

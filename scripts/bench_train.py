@@ -16,7 +16,14 @@ import tempfile
 import time
 
 # torch, TorchRL and the simulation load in main(), after the arguments are parsed.
-from training.runtime import ScriptParser, non_negative_int, positive_int, torchrl_logs_to_stderr, tune_allocator
+from training.runtime import (
+    ScriptParser,
+    non_negative_int,
+    positive_int,
+    run_command,
+    torchrl_logs_to_stderr,
+    tune_allocator,
+)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -102,4 +109,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_command(main, __file__)

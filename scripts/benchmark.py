@@ -58,6 +58,7 @@ from training.runtime import (
     number_type,
     positive_int,
     remove_earlier_results,
+    run_command,
 )
 
 RESULTS = ("benchmark.md", "benchmark.json", "command.txt", *(f"{f}.png" for f in FAMILIES))
@@ -188,4 +189,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_command(main, __file__)

@@ -11,6 +11,7 @@ printed and, with ``--out DIR``, written to ``DIR/build_report.md``.
 import sys
 
 from aircraft.design.build import BuildError, build, build_parser, summary
+from training.runtime import run_command
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -57,4 +58,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_command(main, __file__)

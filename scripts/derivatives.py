@@ -16,7 +16,7 @@ import sys
 from jsbsim_env.analysis import derivatives
 from jsbsim_env.analysis.modes import LinearisationError, linear_modes
 from jsbsim_env.sim.simulation import ALTITUDE_RANGE_M, EAS_RANGE_MPS, Simulation, TrimError
-from training.runtime import ScriptParser, number_type
+from training.runtime import ScriptParser, number_type, run_command
 
 
 def measure(altitude_m: float, airspeed_eas_mps: float) -> dict:
@@ -65,4 +65,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_command(main, __file__)

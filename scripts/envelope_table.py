@@ -10,7 +10,7 @@ import json
 
 from jsbsim_env.analysis.modes import linear_modes
 from jsbsim_env.sim.simulation import Simulation
-from training.runtime import ScriptParser
+from training.runtime import ScriptParser, run_command
 
 ALTITUDES_M = (500.0, 1000.0, 5000.0, 10000.0, 15000.0, 20000.0)
 EAS_MPS = (8.0, 10.0, 12.0)
@@ -67,4 +67,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_command(main, __file__)

@@ -15,7 +15,7 @@ from __future__ import annotations
 import sys
 
 from jsbsim_env.control.factory import CONTROLLER_NAMES
-from training.runtime import ScriptParser, name_list, number_type, positive_int
+from training.runtime import ScriptParser, name_list, number_type, positive_int, run_command
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -68,4 +68,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_command(main, __file__)

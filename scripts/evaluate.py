@@ -29,6 +29,7 @@ from training.runtime import (
     claim_output_folder,
     positive_int,
     remove_earlier_results,
+    run_command,
 )
 
 SHIPPED, PID = "shipped", "PID"  # column names of --compare
@@ -226,4 +227,4 @@ def comparison_table(results: dict[str, dict]) -> str:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_command(main, __file__)

@@ -19,7 +19,7 @@ import sys
 from pathlib import Path
 
 # torch and the simulation load in the functions, after the arguments are parsed.
-from training.runtime import ScriptParser
+from training.runtime import ScriptParser, run_command
 
 
 def markdown(rows: dict[str, dict]) -> str:
@@ -100,4 +100,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_command(main, __file__)

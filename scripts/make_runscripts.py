@@ -9,7 +9,7 @@ so a run again regenerates them (the same files for the same model).
 
 from pathlib import Path
 
-from training.runtime import ScriptParser
+from training.runtime import ScriptParser, run_command
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 
@@ -37,4 +37,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_command(main, __file__)

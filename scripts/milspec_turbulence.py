@@ -26,7 +26,7 @@ import numpy as np
 
 from jsbsim_env.sim import turbulence as turb
 from jsbsim_env.sim.simulation import ALTITUDE_RANGE_M, FT_TO_M, Simulation
-from training.runtime import ScriptParser, number_type
+from training.runtime import ScriptParser, number_type, run_command
 
 ALTITUDES_M = (500.0, 1000.0, 2000.0, 5000.0, 10000.0, 15000.0, 20000.0)
 SEVERITIES = (1, 2, 3, 4, 5, 6, 7)
@@ -110,4 +110,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_command(main, __file__)

@@ -21,6 +21,7 @@ from training.runtime import (
     claim_output_folder,
     number_type,
     remove_earlier_results,
+    run_command,
 )
 
 RESULTS = ("effectiveness.png", "effectiveness.json")  # what --out receives
@@ -55,4 +56,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_command(main, __file__)

@@ -15,7 +15,7 @@ import json
 from pathlib import Path
 
 from training.curves import load_curve, plot_curves, run_summary
-from training.runtime import OutputFolderError, ScriptParser, claim_output_file, positive_int
+from training.runtime import OutputFolderError, ScriptParser, claim_output_file, positive_int, run_command
 
 __all__ = ["load_curve", "main", "run_summary"]
 
@@ -37,4 +37,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_command(main, __file__)

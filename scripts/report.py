@@ -26,6 +26,7 @@ from training.runtime import (
     add_aircraft_options,
     claim_output_folder,
     remove_earlier_results,
+    run_command,
 )
 
 # The files a report writes to --out (an earlier report's are refused, or replaced with --overwrite).
@@ -83,4 +84,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_command(main, __file__)

@@ -20,7 +20,7 @@ import sys
 from pathlib import Path
 
 # torch and the simulation load in main(), after the arguments are parsed.
-from training.runtime import OutputFolderError, ScriptParser, check_output_folder, positive_int
+from training.runtime import OutputFolderError, ScriptParser, check_output_folder, positive_int, run_command
 
 SHIPPED_DIR = Path(__file__).resolve().parents[1] / "jsbsim_env" / "control" / "shipped"
 
@@ -111,4 +111,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_command(main, __file__)

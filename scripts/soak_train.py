@@ -32,6 +32,7 @@ from training.runtime import (
     check_output_folder,
     positive_float,
     positive_int,
+    run_command,
     seed_int,
 )
 
@@ -195,4 +196,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_command(main, __file__)

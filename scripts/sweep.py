@@ -53,6 +53,7 @@ from training.runtime import (
     claim_output_folder,
     positive_int,
     remove_earlier_results,
+    run_command,
 )
 
 # The files a sweep writes to --out (an earlier sweep's are refused, or replaced with --overwrite).
@@ -193,4 +194,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_command(main, __file__)

@@ -24,7 +24,7 @@ from pathlib import Path
 # Only what the parser needs is imported here: torch and TorchRL load after the arguments are
 # parsed, so that a mistyped option is refused at once.
 from training.config import TrainConfig, check_run_name
-from training.runtime import ScriptParser, positive_int, torchrl_logs_to_stderr, tune_allocator
+from training.runtime import ScriptParser, positive_int, run_command, torchrl_logs_to_stderr, tune_allocator
 
 # Exit codes of a run stopped by a signal, as a shell reports them (128 + signal number).
 _SIGNAL_EXIT = {"SIGINT": 130, "SIGTERM": 143}
@@ -165,4 +165,4 @@ def _train_seeds(args, command: list[str]) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_command(main, __file__)

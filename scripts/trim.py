@@ -13,7 +13,7 @@ import sys
 
 from jsbsim_env.analysis.modes import LinearisationError, linear_modes
 from jsbsim_env.sim.simulation import ALTITUDE_RANGE_M, EAS_RANGE_MPS, Simulation, TrimError
-from training.runtime import ScriptParser, number_type
+from training.runtime import ScriptParser, number_type, run_command
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -49,4 +49,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_command(main, __file__)

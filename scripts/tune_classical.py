@@ -18,7 +18,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from training.runtime import OutputFolderError, ScriptParser, claim_output_file, positive_int, seed_int
+from training.runtime import OutputFolderError, ScriptParser, claim_output_file, positive_int, run_command, seed_int
 
 DEFAULT_BUDGET = 100
 
@@ -84,4 +84,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_command(main, __file__)

@@ -18,7 +18,7 @@ from pathlib import Path
 
 from jsbsim_env.control.lqi import GAINS_PATH, write_gain_table
 from jsbsim_env.control.pid import DESIGN_ALTITUDES_M
-from training.runtime import OutputFolderError, ScriptParser, check_output_folder
+from training.runtime import OutputFolderError, ScriptParser, check_output_folder, run_command
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -45,4 +45,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_command(main, __file__)

@@ -15,7 +15,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from jsbsim_env.control.pid import GAINS_PATH, write_gain_table
-from training.runtime import OutputFolderError, ScriptParser, check_output_folder
+from training.runtime import OutputFolderError, ScriptParser, check_output_folder, run_command
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -39,4 +39,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_command(main, __file__)

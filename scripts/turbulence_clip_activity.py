@@ -18,7 +18,7 @@ import numpy as np
 
 from jsbsim_env.sim import turbulence as turb
 from jsbsim_env.sim.simulation import Simulation
-from training.runtime import ScriptParser, number_type, positive_float
+from training.runtime import ScriptParser, number_type, positive_float, run_command
 
 ALTITUDES_M = (500.0, 1000.0, 2000.0, 5000.0, 10000.0, 15000.0, 20000.0)
 EAS_MPS = (8.0, 10.0, 12.0)
@@ -74,4 +74,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_command(main, __file__)

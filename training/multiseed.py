@@ -18,6 +18,8 @@ import numpy as np
 from training.config import TrainConfig, check_run_name
 from training.ray_session import ray_session
 
+TRAINING_STOP_GRACE_S = 120.0  # a stopped seed's last batch and checkpoint, before it is killed
+
 
 def train_seed(config: dict, run_dir: str, command: list[str]) -> dict:
     """Train (or resume) one seed's run; returns its last log row with ``run_dir``."""
@@ -60,11 +62,10 @@ def train_seeds(config: TrainConfig, seeds: list[int], name: str, command: list[
         raise ValueError(f"backend must be 'local' or 'ray', got {backend!r}")
     if workers <= 1:
         return [train_seed(c, d, command) for c, d in runs]
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
+    from training.workers import process_pool
 
-    # Fresh interpreters: a forked copy of a process that has run torch can deadlock.
-    with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+    # A training stopped by SIGINT or SIGTERM writes its checkpoint at the end of its batch first.
+    with process_pool(workers, grace_s=TRAINING_STOP_GRACE_S) as pool:
         return list(pool.map(train_seed, *zip(*[(c, d, command) for c, d in runs])))
 
 

@@ -13,10 +13,12 @@ import logging
 import math
 import os
 import re
+import signal
 import sys
 import tempfile
+import threading
 import warnings
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 from aircraft import AIRCRAFT_NAME
@@ -138,6 +140,36 @@ def check_output_folder(path: Path | str) -> Path:
         what = "write to the folder" if existing == path else "create the folder"
         raise OutputFolderError(f"cannot {what} {path}: {err.strerror or err}") from None
     return path
+
+
+# ---------------------------------------------------------------------------------- the commands' process
+class CommandStopped(KeyboardInterrupt):
+    """SIGTERM, raised as Ctrl-C's ``KeyboardInterrupt`` is, so that a command's ``finally`` blocks
+    and process pools (``training.workers``) clean up the same way for both."""
+
+    signal_name = "SIGTERM"
+
+
+def _raise_stopped(signum, frame) -> None:
+    raise CommandStopped()
+
+
+def run_command(main: Callable[[], int | None], script: str | Path) -> None:
+    """Run a command's ``main`` and exit with its code. A stop request ends it in one line on stderr,
+    ``NAME: stopped by SIGINT (Ctrl-C) before it finished``, with a shell's exit code for the signal
+    (130 or 143), never a traceback: Ctrl-C (SIGINT) and SIGTERM both raise ``KeyboardInterrupt``
+    in the main thread. A command that keeps partial work says so itself before this line."""
+    name = Path(script).stem
+    if threading.current_thread() is threading.main_thread():  # the only thread that may set handlers
+        signal.signal(signal.SIGTERM, _raise_stopped)
+    try:
+        code = main()
+    except KeyboardInterrupt as stop:
+        which = getattr(stop, "signal_name", "SIGINT")
+        print(f"{name}: stopped by {which}{' (Ctrl-C)' if which == 'SIGINT' else ''} before it finished",
+              file=sys.stderr)
+        code = 128 + int(getattr(signal, which))
+    sys.exit(code)
 
 
 # ---------------------------------------------------------------------------------- the commands' arguments

@@ -41,7 +41,6 @@ from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from functools import partial
-from multiprocessing import get_context
 from pathlib import Path
 
 import numpy as np
@@ -52,6 +51,7 @@ from jsbsim_env.control.pid import GainSchedule, PIDAttitudeController
 from training.evaluation import heldout
 from training.evaluation.seeds import check_not_test_seed
 from training.runtime import available_cores
+from training.workers import optional_pool
 
 TOOL = "tune_classical"
 CONTROLLERS = ("pid", "lqi")
@@ -269,27 +269,22 @@ class Evaluation:
 
 
 class _Runner:
-    """Flies tables in this process (``workers`` 1) or in a pool of ``workers`` processes."""
+    """Flies tables in this process (``pool`` None) or in a pool of processes (``training.workers``)."""
 
-    def __init__(self, workers: int):
-        self.workers = workers
-        self.pool = (ProcessPoolExecutor(workers, mp_context=get_context("spawn")) if workers > 1 else None)
+    def __init__(self, pool: ProcessPoolExecutor | None = None):
+        self.pool = pool
 
     def map(self, fn: Callable, items: list) -> list:
         if self.pool is None:
             return [fn(*item) for item in items]
         return list(self.pool.map(fn, *zip(*items))) if items else []
 
-    def close(self) -> None:
-        if self.pool is not None:
-            self.pool.shutdown()
-
 
 def evaluate_candidates(problem: Problem, xs: Sequence, reference: dict, quick: bool = False,
                         runner: _Runner | None = None, aircraft=None) -> list[Evaluation]:
     """Each candidate's score: its design checked for robustness (infinite, unflown, where it fails),
     then the held-out flights, relative to ``reference`` (the PID's scores)."""
-    runner = runner or _Runner(1)
+    runner = runner or _Runner()
     out: list[Evaluation] = []
     to_fly = []
     for x in xs:
@@ -340,8 +335,8 @@ def tune(controller: str, budget: int, seed: int = 0, workers: int = 1, quick: b
     n = len(problem.parameters)
     popsize = max(2, min(default_popsize(n), budget))
     generations = budget // popsize
-    runner = _Runner(workers)
-    try:
+    with optional_pool(workers) as pool:
+        runner = _Runner(pool)
         reference = reference_scores(quick, aircraft)
         say(f"reference (the shipped PID) flown: {time.perf_counter() - started:.1f} s")
         start = evaluate_candidates(problem, [problem.x0], reference, quick, runner, aircraft)[0]
@@ -370,8 +365,6 @@ def tune(controller: str, budget: int, seed: int = 0, workers: int = 1, quick: b
             if es.stop():
                 stop_reason = {k: (v if isinstance(v, (int, float, str)) else str(v)) for k, v in es.stop().items()}
                 break
-    finally:
-        runner.close()
     wall_s = time.perf_counter() - started
     table = {k: v for k, v in best.table.items()}
     flight_s = sum(c.duration_s for c in flights.values())

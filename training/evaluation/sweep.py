@@ -222,7 +222,8 @@ def jobs_for(controllers: Iterable[str], conditions: list[dict], episodes: int, 
 
 def run_local(jobs: list, policy: str | None = None, workers: int = 1, progress=None,
               run: Callable[..., list[dict]] = run_job) -> list[dict]:
-    """Run ``jobs`` in ``workers`` processes (1: in this one); rows in job order. ``run(job, policy)``
+    """Run ``jobs`` in ``workers`` processes (1: in this one; more: fresh processes of one torch
+    thread each, stopped on Ctrl-C, ``training.workers``); rows in job order. ``run(job, policy)``
     flies one job (a module-level function, so that it pickles): ``run_job`` for the sweep's."""
     if workers <= 1:
         out = []
@@ -231,10 +232,12 @@ def run_local(jobs: list, policy: str | None = None, workers: int = 1, progress=
             if progress is not None:
                 progress(1)
         return out
-    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures import as_completed
+
+    from training.workers import process_pool
 
     results: list[list[dict]] = [[] for _ in jobs]
-    with ProcessPoolExecutor(max_workers=workers) as pool:
+    with process_pool(workers) as pool:
         futures = {pool.submit(run, job, policy): i for i, job in enumerate(jobs)}
         for future in as_completed(futures):
             results[futures[future]] = future.result()

@@ -1,0 +1,107 @@
+"""The process pools of every command that flies or trains in several processes (benchmark,
+sweep, classical tuning, several seeds, the environment benchmark).
+
+A worker is a fresh interpreter (the ``spawn`` start method), never a fork: a process forked after
+torch has started its OpenMP threads inherits a thread pool whose threads do not exist, and the
+first parallel torch operation in the child then waits for them forever. Each worker runs one
+torch thread (the thread variables are set before it starts, so before it imports torch): the
+workers share the machine's cores, and OpenMP threads beyond them only wait on each other.
+
+Ctrl-C reaches the whole process group; the workers ignore it and the parent, on its
+``KeyboardInterrupt`` (or any error), cancels the work not started and terminates its workers
+before the exception goes on, so that a stopped command ends in its own one line, not in a
+traceback from each worker.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import multiprocessing
+import os
+import signal
+import sys
+from collections.abc import Callable, Iterator
+from concurrent.futures import ProcessPoolExecutor
+
+# The thread counts of the libraries a worker may load (torch's OpenMP and MKL, numpy's BLAS).
+THREAD_VARIABLES = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")
+START_METHOD = "spawn"
+STOP_GRACE_S = 5.0  # how long a terminated worker may take to end before it is killed
+
+
+def _start_worker(initializer: Callable | None, initargs: tuple) -> None:
+    """Runs first in every worker: Ctrl-C is the parent's to handle, one torch thread (where a module
+    the worker unpickled has loaded torch already; the variables cover a later import), then the
+    caller's ``initializer``."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    torch = sys.modules.get("torch")
+    if torch is not None:
+        torch.set_num_threads(1)
+    if initializer is not None:
+        initializer(*initargs)
+
+
+@contextlib.contextmanager
+def _one_thread_environment() -> Iterator[None]:
+    """The thread variables at 1 while workers start (a spawned worker takes the parent's
+    environment when it starts), then as they were."""
+    before = {name: os.environ.get(name) for name in THREAD_VARIABLES}
+    os.environ.update({name: "1" for name in THREAD_VARIABLES})
+    try:
+        yield
+    finally:
+        for name, value in before.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
+
+
+def stop_workers(pool: ProcessPoolExecutor, grace_s: float = STOP_GRACE_S) -> None:
+    """Cancel what has not started and terminate (SIGTERM) the workers now, without waiting for
+    their work; a worker still alive ``grace_s`` seconds later is killed."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        if process.is_alive():
+            process.terminate()
+    for process in processes:
+        process.join(timeout=grace_s)
+        if process.is_alive():
+            process.kill()
+
+
+@contextlib.contextmanager
+def process_pool(workers: int, initializer: Callable | None = None, initargs: tuple = (),
+                 grace_s: float = STOP_GRACE_S) -> Iterator[ProcessPoolExecutor]:
+    """A pool of ``workers`` fresh processes of one torch thread each, for a ``with`` block. On a
+    normal exit it waits for its work; on any exception (Ctrl-C's ``KeyboardInterrupt`` included)
+    it stops its workers first (``stop_workers``, giving each ``grace_s`` seconds to end: longer for
+    work that saves itself on SIGTERM) and the exception goes on. ``initializer(*initargs)`` runs in
+    each worker once, as in ``ProcessPoolExecutor``."""
+    if workers < 1:
+        raise ValueError(f"a process pool needs at least 1 worker, got {workers}")
+    with _one_thread_environment():
+        # Workers start as work is submitted, so the variables stay set while the pool lives.
+        pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context(START_METHOD),
+                                   initializer=_start_worker, initargs=(initializer, initargs))
+        try:
+            yield pool
+        except BaseException:
+            stop_workers(pool, grace_s)
+            raise
+        pool.shutdown(wait=True)
+
+
+@contextlib.contextmanager
+def optional_pool(workers: int, initializer: Callable | None = None,
+                  initargs: tuple = ()) -> Iterator[ProcessPoolExecutor | None]:
+    """``process_pool(workers)`` for more than one worker; None (work in this process) for one."""
+    if workers <= 1:
+        yield None
+        return
+    with process_pool(workers, initializer, initargs) as pool:
+        yield pool
+
+
+__all__ = ["START_METHOD", "THREAD_VARIABLES", "optional_pool", "process_pool", "stop_workers"]
