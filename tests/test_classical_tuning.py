@@ -63,8 +63,10 @@ def test_the_start_points_are_the_shipped_tables():
     lqi_problem = classical_tuning.Problem("lqi")
     redesigned = json.loads(json.dumps(lqi_problem.design(lqi_problem.x0)))  # as written and read back
     shipped_lqi = json.loads(LQI_GAINS_PATH.read_text())
-    assert [[p[c] for c in GAIN_COLUMNS] for p in redesigned["points"]] == \
-        [[p[c] for c in GAIN_COLUMNS] for p in shipped_lqi["points"]]
+    # The Riccati solution differs between CPUs in its last digits (3e-10 relative seen); any change
+    # of the design (a weight, a model point) moves the gains by far more than 1e-7.
+    np.testing.assert_allclose([[p[c] for c in GAIN_COLUMNS] for p in redesigned["points"]],
+                               [[p[c] for c in GAIN_COLUMNS] for p in shipped_lqi["points"]], rtol=1e-7, atol=1e-12)
     # Rate damping grows from the shipped (near zero) gain, in seconds of the attitude gain.
     x = np.zeros(len(classical_tuning.PID_PARAMETERS))
     x[[p.name for p in classical_tuning.PID_PARAMETERS].index("pitch_rate")] = 1.0

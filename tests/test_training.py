@@ -105,6 +105,19 @@ def test_config_round_trip_and_command_line():
         TrainConfig.from_namespace(parser.parse_args(["--env.task", "SolarUAVAttitude-v7"]))
 
 
+@pytest.mark.parametrize("text", ["yes", "no", "0", "1", "on", "True", "FALSE", "flase", ""])
+def test_a_boolean_option_takes_exactly_true_or_false(text, capsys):
+    import argparse
+
+    parser = argparse.ArgumentParser()
+    TrainConfig.add_arguments(parser)
+    assert TrainConfig.from_namespace(parser.parse_args(["--env.disturbances", "false"])).env.disturbances is False
+    assert TrainConfig.from_namespace(parser.parse_args(["--log.progress", "true"])).log.progress is True
+    with pytest.raises(SystemExit):
+        parser.parse_args(["--env.disturbances", text])
+    assert f"must be true or false, got {text!r}" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize(("data", "named"), [
     ({"env": {"integral_trim": 0.5}}, "env.integral_trim"),
     ({"env": {"task": "SolarUAVAttitude-v1", "delay_ms": [80.0, 120.0]}}, "env.delay_ms"),

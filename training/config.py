@@ -446,11 +446,13 @@ def check_run_name(name: str) -> str:
 
 
 def _parse_bool(text: str) -> bool:
-    if text.lower() in ("1", "true", "yes", "on"):
+    """``true`` or ``false``, as ``--help`` says (``Flag``): nothing else, so that a slip such as
+    ``no`` or ``0`` is refused rather than read one way or the other."""
+    if text == "true":
         return True
-    if text.lower() in ("0", "false", "no", "off"):
+    if text == "false":
         return False
-    raise argparse.ArgumentTypeError(f"expected true or false, got {text!r}")
+    raise argparse.ArgumentTypeError(f"must be true or false, got {text!r}")
 
 
 def _add_option(parser, name: str, typ, f: dataclasses.Field) -> None:

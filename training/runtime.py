@@ -173,9 +173,21 @@ def run_command(main: Callable[[], int | None], script: str | Path) -> None:
 
 
 # ---------------------------------------------------------------------------------- the commands' arguments
+class _DefaultsHelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """``--help`` with each option's default once: none added where the help already says it, nor
+    for a default that says nothing (an unset option, a flag that is off, an empty list)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        if "default" in text.lower() or action.default is None or action.default is False \
+                or (isinstance(action.default, (list, tuple)) and not action.default):
+            return text
+        return super()._get_help_string(action)
+
+
 class ScriptParser(argparse.ArgumentParser):
     """The argument parser of every command in ``scripts/``: options are matched whole (never by
-    prefix), ``--help`` shows each option's default, and a refused argument is one line on stderr,
+    prefix), ``--help`` shows each option's default once, and a refused argument is one line on stderr,
     ``NAME: --option must be ..., got ...``, with exit code 2 (``--help`` shows the usage).
 
     ``script`` is the command's file (``__file__``): its name is the program in ``--help`` and its
@@ -183,7 +195,7 @@ class ScriptParser(argparse.ArgumentParser):
 
     def __init__(self, script: str | Path, description: str | None = None, **kwargs):
         kwargs.setdefault("allow_abbrev", False)
-        kwargs.setdefault("formatter_class", argparse.ArgumentDefaultsHelpFormatter)
+        kwargs.setdefault("formatter_class", _DefaultsHelpFormatter)
         super().__init__(prog=Path(script).name, description=description, **kwargs)
         self.command_name = Path(script).stem
 
