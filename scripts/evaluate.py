@@ -89,7 +89,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--overwrite", action="store_true", help="replace the plots of an earlier evaluation in --plots")
     parser.add_argument("--backend", choices=("onnx", "torch"), default="onnx",
                         help="runtime of the policy: onnxruntime or PyTorch")
-    parser.add_argument("--json", action="store_true", help="print the metrics as JSON (no progress bar)")
+    parser.add_argument("--json", action="store_true",
+                        help="print every metric as JSON (no progress bar); without it, a table of the headline figures")
     return parser
 
 
@@ -138,7 +139,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.plots is not None and args.overwrite:
         remove_earlier_results(args.plots, PLOT_RESULTS)
     results = _evaluate(controller, about, args.episodes, args.plots, progress=not args.json, aircraft=args.aircraft)
-    print(json.dumps(results, indent=2, allow_nan=False, default=str))
+    print(json.dumps(results, indent=2, allow_nan=False, default=str) if args.json
+          else results_table(next(iter(controllers)), results))
     return 0
 
 
@@ -194,13 +196,61 @@ _DOUBLET_ROWS = (("doublets RMSE roll, deg", "rmse_roll_deg", "{:.2f}"),
                  ("doublets RMSE sideslip, deg", "rmse_beta_deg", "{:.2f}"))
 
 
+# Rows of one controller's doublet table: label, the metric (a list: one value per step of the
+# doublet, shown joined by " / ") and its format.
+_DOUBLET_DETAIL_ROWS = (*_DOUBLET_ROWS,
+                        ("steady-state error roll, deg", "steady_state_error_roll_deg", "{:.3f}"),
+                        ("steady-state error pitch, deg", "steady_state_error_pitch_deg", "{:.3f}"),
+                        ("steady-state error EAS, m/s", "steady_state_error_airspeed_eas_mps", "{:.3f}"),
+                        ("settling time roll, s", "settling_time_90_s_roll_deg", "{:.1f}"),
+                        ("settling time pitch, s", "settling_time_90_s_pitch_deg", "{:.1f}"),
+                        ("settling time EAS, s", "settling_time_90_s_airspeed_eas_mps", "{:.1f}"))
+
+
+def _cell(value, fmt: str) -> str:
+    """A figure as the tables print it; a missing or non-finite one as a dash."""
+    if isinstance(value, list):
+        return " / ".join(_cell(v, fmt) for v in value)
+    return "—" if value is None or (isinstance(value, float) and not math.isfinite(value)) else fmt.format(value)
+
+
+def _aligned(rows: list[tuple[str, list[str]]]) -> list[str]:
+    """Rows of a label and cells as text columns, a rule under the first row."""
+    widths = [max(len(row[0]) for row in rows)] + [max(len(row[1][j]) for row in rows) for j in range(len(rows[0][1]))]
+    lines = []
+    for k, (label, cells) in enumerate(rows):
+        lines.append("  ".join([label.ljust(widths[0]), *(c.rjust(w) for c, w in zip(cells, widths[1:]))]))
+        if k == 0:
+            lines.append("  ".join("-" * w for w in widths))
+    return lines
+
+
+def results_table(label: str, results: dict) -> str:
+    """One controller's suite results (``_evaluate``'s) as readable tables: the seeded episodes'
+    figures, then each doublet's, with every dash explained (``--json`` has every figure)."""
+    episodes = results["episodes"]
+    rows = [("episodes", [label]),
+            ("count", [str(episodes["count"])]),
+            ("ended early", [str(episodes["ended_early"])])]
+    rows += [(name, [_cell(episodes[key], fmt)]) for name, key, fmt in _EPISODE_ROWS]
+    doublets = results["doublets"]
+    drows = [("doublets (each step: first / second / third)", list(doublets)),
+             ("ended early", ["yes" if d["ended_early"] else "no" for d in doublets.values()])]
+    drows += [(name.removeprefix("doublets "), [_cell(d[key], fmt) for d in doublets.values()])
+              for name, key, fmt in _DOUBLET_DETAIL_ROWS]
+    about = results["controller"]
+    what = ("the shipped policy" if about.get("file") == SHIPPED else about["file"]) if "file" in about \
+        else about.get("name", label)
+    lines = [f"{label}: {what}", "", *_aligned(rows), "", *_aligned(drows)]
+    reasons = sorted({why for why in results.get("null_values", {}).values()})
+    lines += ["", *(f"—: {why}" for why in reasons)] if reasons else []
+    return "\n".join(lines)
+
+
 def comparison_table(results: dict[str, dict]) -> str:
     """The suite's headline figures of each controller side by side (``_evaluate``'s results by
     name): the episodes' mean return, early ends and RMSE, then the doublets' RMSE averaged over
     their altitudes."""
-    def cell(value, fmt: str) -> str:
-        return "—" if value is None or (isinstance(value, float) and not math.isfinite(value)) else fmt.format(value)
-
     def doublet_mean(doublets: dict, key: str):
         values = [d[key] for d in doublets.values()]
         return None if any(v is None for v in values) else sum(values) / len(values)
@@ -208,22 +258,16 @@ def comparison_table(results: dict[str, dict]) -> str:
     first = next(iter(results.values()))
     rows = [("controller", list(results))]
     for label, key, fmt in _EPISODE_ROWS[:1]:
-        rows.append((label, [cell(r["episodes"][key], fmt) for r in results.values()]))
+        rows.append((label, [_cell(r["episodes"][key], fmt) for r in results.values()]))
     rows.append((f"early ends (of {first['episodes']['count']} episodes)",
                  [str(r["episodes"]["ended_early"]) for r in results.values()]))
     for label, key, fmt in _EPISODE_ROWS[1:]:
-        rows.append((label, [cell(r["episodes"][key], fmt) for r in results.values()]))
+        rows.append((label, [_cell(r["episodes"][key], fmt) for r in results.values()]))
     rows.append((f"doublets ended early (of {len(first['doublets'])})",
                  [str(sum(bool(d["ended_early"]) for d in r["doublets"].values())) for r in results.values()]))
     for label, key, fmt in _DOUBLET_ROWS:
-        rows.append((label, [cell(doublet_mean(r["doublets"], key), fmt) for r in results.values()]))
-    widths = [max(len(row[0]) for row in rows)] + [max(len(row[1][j]) for row in rows) for j in range(len(results))]
-    lines = []
-    for k, (label, cells) in enumerate(rows):
-        lines.append("  ".join([label.ljust(widths[0]), *(c.rjust(w) for c, w in zip(cells, widths[1:]))]))
-        if k == 0:
-            lines.append("  ".join("-" * w for w in widths))
-    return "\n".join(lines)
+        rows.append((label, [_cell(doublet_mean(r["doublets"], key), fmt) for r in results.values()]))
+    return "\n".join(_aligned(rows))
 
 
 if __name__ == "__main__":

@@ -31,3 +31,20 @@ def test_compare_prints_one_table(tmp_path, capsys, load_script):
     assert set(rule.replace(" ", "")) == {"-"}
     returns = next(row for row in rows if row.startswith("return"))
     assert returns.split()[-3] == returns.split()[-2]  # the copy and the shipped policy fly alike
+
+
+def test_one_controller_prints_readable_tables_and_json_only_when_asked(capsys, load_script):
+    evaluate = load_script("evaluate")
+    assert evaluate.main(["--controller", "pid", "--episodes", "1"]) == 0
+    out = capsys.readouterr().out
+    assert not out.lstrip().startswith("{")
+    lines = out.splitlines()
+    assert lines[0] == "PID: gain-scheduled PID"
+    doublets = next(line for line in lines if line.startswith("doublets"))
+    assert doublets.split()[-3:] == ["500m", "5000m", "15000m"]
+    settling = next(line for line in lines if line.startswith("settling time pitch"))
+    assert settling.count("/") == 6  # three steps at each of three altitudes
+    assert evaluate.main(["--controller", "pid", "--episodes", "1", "--json"]) == 0
+    as_json = json.loads(capsys.readouterr().out)
+    row = next(line for line in lines if line.startswith("RMSE roll, deg"))
+    assert float(row.split()[-1]) == round(as_json["episodes"]["mean_rmse_roll_deg"], 2)
