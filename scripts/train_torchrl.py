@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 import time
 from pathlib import Path
@@ -96,6 +97,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"train_torchrl: cannot write to the run folder {run_dir} ({err.strerror or err})", file=sys.stderr)
         return 1
     print(f"run folder: {run_dir}", file=sys.stderr)
+    if args.resume:
+        c = trainer.counters
+        best = f"; best evaluation so far {c.best_eval:.3f}" if math.isfinite(c.best_eval) else ""
+        print(f"train_torchrl: resuming from its checkpoint at {c.frames:,} of {config.collector.total_frames:,} "
+              f"environment steps ({c.updates:,} updates{best})", file=sys.stderr)
     try:
         last = trainer.train()
     except TrainingInterrupted as stop:

@@ -161,12 +161,14 @@ def test_train_script_help_lists_the_settings():
         assert removed not in done.stdout
 
 
-def test_train_script_records_each_session_for_the_shipped_record(tmp_path, load_script, tiny_args):
+def test_train_script_records_each_session_for_the_shipped_record(tmp_path, load_script, tiny_args, capsys):
     script = load_script("train_torchrl")
     tiny = [*tiny_args(None), "--log.run_root", str(tmp_path), "--run-name", "run"]
     assert script.main([*tiny, "--collector.total_frames", "96"]) == 0
     run = tmp_path / "run"
+    capsys.readouterr()
     assert script.main(["--resume", str(run), "--collector.total_frames", "128"]) == 0
+    assert "train_torchrl: resuming from its checkpoint at 96 of 128 environment steps" in capsys.readouterr().err
     import aircraft
     from training.provenance import git_commit, read_sessions, trained_aircraft_model
 
@@ -282,3 +284,32 @@ def test_each_encoder_trains_and_its_policy_file_flies_with_it(tmp_path, tiny_co
 def test_an_unknown_encoder_is_refused_by_name():
     with pytest.raises(ValueError, match="network.encoder must be one of lstm, gru, mlp, got 'transformer'"):
         TrainConfig.from_dict({"network": {"encoder": "transformer"}})
+
+
+def test_torchrl_log_lines_go_above_the_progress_bar(monkeypatch):
+    import io
+    import logging
+    import re
+
+    from tqdm import tqdm
+
+    from training.runtime import torchrl_logs_to_stderr
+
+    handlers = [h for h in logging.getLogger("torchrl").handlers if isinstance(h, logging.StreamHandler)]
+    streams = [h.stream for h in handlers]
+    err = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", err)
+    try:
+        torchrl_logs_to_stderr()
+        bar = tqdm(total=10, desc="train", file=err, mininterval=0)
+        bar.update(5)
+        logging.getLogger("torchrl").warning("storage ready")
+        bar.update(5)
+        bar.close()
+    finally:
+        for handler, stream in zip(handlers, streams):
+            handler.setStream(stream)
+    pieces = re.split("[\r\n]", err.getvalue())
+    logged = [p for p in pieces if "storage ready" in p]
+    assert logged and not any("train" in p for p in logged)
+    assert any(p.startswith("train: 100%") for p in pieces)

@@ -79,18 +79,39 @@ def strip_ansi(text: str) -> str:
 
 def torchrl_logs_to_stderr() -> None:
     """Send TorchRL's log lines to stderr: it logs to stdout, which this package keeps for results
-    (``--json``). Where stderr is not a terminal (a log file, a pipe) the lines go without
-    TorchRL's colour codes. Imports TorchRL (which sets up its logger on import)."""
+    (``--json``). Each line goes above the progress bar (tqdm's ``write``), not into the bar being
+    drawn; where stderr is not a terminal (a log file, a pipe) the lines go without TorchRL's colour
+    codes. Imports TorchRL (which sets up its logger on import)."""
     import torchrl  # noqa: F401 - creates the "torchrl" logger and its handler
 
     for handler in logging.getLogger("torchrl").handlers:
-        if not isinstance(handler, logging.StreamHandler):
+        if not isinstance(handler, logging.StreamHandler) or isinstance(handler.stream, _AboveProgressBars):
             continue
-        if handler.stream is sys.stdout:
-            handler.setStream(sys.stderr)
-        if handler.stream is sys.stderr and not _is_terminal(sys.stderr) \
-                and not isinstance(handler.formatter, _PlainFormatter):
+        if handler.stream not in (sys.stdout, sys.stderr):
+            continue
+        if not _is_terminal(sys.stderr) and not isinstance(handler.formatter, _PlainFormatter):
             handler.setFormatter(_PlainFormatter(handler.formatter))
+        handler.setStream(_AboveProgressBars(sys.stderr))
+
+
+class _AboveProgressBars:
+    """A log handler's stream that writes each whole line with ``tqdm.write``, which clears any
+    progress bar, writes the line and draws the bar again below it."""
+
+    def __init__(self, stream):
+        self.stream = stream
+        self._partial = ""
+
+    def write(self, text: str) -> int:
+        from tqdm import tqdm
+
+        *lines, self._partial = (self._partial + text).split("\n")
+        for line in lines:
+            tqdm.write(line, file=self.stream)
+        return len(text)
+
+    def flush(self) -> None:
+        self.stream.flush()
 
 
 def _is_terminal(stream) -> bool:
