@@ -13,10 +13,9 @@ import textwrap
 import time
 
 import pytest
+from conftest import ROOT, SCRIPTS
 
 from training.workers import THREAD_VARIABLES, process_pool
-
-from conftest import ROOT, SCRIPTS
 
 BOUND_S = 240.0  # each command flies for about 10 s here; a deadlock never ends
 
@@ -94,7 +93,7 @@ def test_ctrl_c_stops_the_benchmark_and_its_workers_in_one_line(tmp_path):
         assert proc.poll() is None, "the benchmark ended before it could be stopped"
         os.killpg(proc.pid, signal.SIGINT)  # as a terminal's Ctrl-C: the whole process group
         stopped = time.monotonic()
-        out, err = proc.communicate(timeout=30)
+        _, err = proc.communicate(timeout=30)
         took_s = time.monotonic() - stopped
     finally:
         if proc.poll() is None:
