@@ -1,6 +1,7 @@
-"""Measure the stability and control derivatives of the solar UAV through JSBSim at one trim.
+"""Measure the stability and control derivatives of an aircraft through JSBSim at one trim.
 
     python scripts/derivatives.py --altitude-m 1000 --veas-mps 10 [--json]
+    python scripts/derivatives.py --aircraft builds/my_uav      # at its reference EAS, low in its envelope
 
 Central differences of JSBSim's total aerodynamic forces and moments (jsbsim_env/analysis/derivatives.py),
 the aileron's yaw-to-roll ratio in body and stability axes, the largest yaw rate against the roll
@@ -13,15 +14,18 @@ import json
 import math
 import sys
 
+from aircraft import Aircraft, AircraftError, load_aircraft
 from jsbsim_env.analysis import derivatives
 from jsbsim_env.analysis.modes import LinearisationError, linear_modes
-from jsbsim_env.sim.simulation import ALTITUDE_RANGE_M, EAS_RANGE_MPS, Simulation, TrimError
-from training.runtime import ScriptParser, number_type, run_command
+from jsbsim_env.sim.simulation import Simulation, TrimError
+from training.runtime import ScriptParser, add_aircraft_options, check_in_envelope, finite_float, run_command
+
+DEFAULT_PAPER_ALTITUDE_M = 1000.0  # the paper's aircraft's; another's at the same fraction of its envelope
 
 
-def measure(altitude_m: float, airspeed_eas_mps: float) -> dict:
-    """Everything the script prints, as one dict."""
-    sim = Simulation()
+def measure(altitude_m: float, airspeed_eas_mps: float, aircraft: Aircraft | str | None = None) -> dict:
+    """Everything the script prints, as one dict (the paper's aircraft when ``aircraft`` is None)."""
+    sim = Simulation(aircraft)
     measured = derivatives.measure(sim, altitude_m, airspeed_eas_mps)
     trim = sim.trim(altitude_m, airspeed_eas_mps)
     stability = derivatives.to_stability_axes(measured, math.radians(trim.alpha_deg))
@@ -36,21 +40,32 @@ def measure(altitude_m: float, airspeed_eas_mps: float) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     parser = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
-    parser.add_argument("--altitude-m", type=number_type(float, *ALTITUDE_RANGE_M, unit="m", outside="the flight envelope"), default=1000.0,
-                        help=f"altitude above sea level, m (the envelope: {ALTITUDE_RANGE_M[0]:g}-{ALTITUDE_RANGE_M[1]:g})")
-    parser.add_argument("--veas-mps", type=number_type(float, *EAS_RANGE_MPS, unit="m/s", outside="the flight envelope"), default=10.0,
-                        help=f"equivalent airspeed, m/s (the envelope: {EAS_RANGE_MPS[0]:g}-{EAS_RANGE_MPS[1]:g})")
+    add_aircraft_options(parser, "the condition must lie in its envelope", transfer=False)
+    parser.add_argument("--altitude-m", type=finite_float, default=None,
+                        help="altitude above sea level, m, in the aircraft's envelope (default: 1,000 m for the "
+                             "paper's aircraft, the same fraction of another's envelope)")
+    parser.add_argument("--veas-mps", type=finite_float, default=None,
+                        help="equivalent airspeed, m/s, in the aircraft's envelope (default: its reference EAS)")
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     args = parser.parse_args(argv)
     try:
-        result = measure(args.altitude_m, args.veas_mps)
+        flown = load_aircraft(args.aircraft)
+        altitude_m = check_in_envelope(flown.altitude_like_m(DEFAULT_PAPER_ALTITUDE_M) if args.altitude_m is None
+                                       else args.altitude_m, flown.altitude_range_m, "--altitude-m", "m", flown.name)
+        eas_mps = check_in_envelope(flown.reference_eas_mps if args.veas_mps is None else args.veas_mps,
+                                    flown.eas_range_mps, "--veas-mps", "m/s", flown.name)
+    except (AircraftError, ValueError) as err:
+        print(f"derivatives: {err}", file=sys.stderr)
+        return 2
+    try:
+        result = measure(altitude_m, eas_mps, flown)
     except (TrimError, LinearisationError) as err:
-        print(f"derivatives.py: {err}", file=sys.stderr)
+        print(f"derivatives: {err}", file=sys.stderr)
         return 2
     if args.json:
         print(json.dumps(result, indent=2))
         return 0
-    print(f"trim at {args.altitude_m:g} m, EAS {args.veas_mps:g} m/s: alpha {result['alpha_deg']:.3f} deg")
+    print(f"{flown.name} trimmed at {altitude_m:g} m, EAS {eas_mps:g} m/s: alpha {result['alpha_deg']:.3f} deg")
     for name, value in sorted(result["derivatives"].items()):
         print(f"{name:8s} {value:+.5f}")
     print(f"aileron Cn/Cl: body {result['aileron_yaw_to_roll_body']:+.4f}, "

@@ -1,6 +1,7 @@
-"""Trim the solar UAV at one flight condition and print the result (and its linear modes).
+"""Trim an aircraft at one flight condition and print the result (and its linear modes).
 
     python scripts/trim.py --altitude-m 10000 --veas-mps 10 --json --modes
+    python scripts/trim.py --aircraft builds/my_uav --altitude-m 500 --veas-mps 12
 
 Exits with status 2 and a message on stderr when no trim exists (outside the envelope, or a
 control at its limit).
@@ -11,29 +12,38 @@ from __future__ import annotations
 import json
 import sys
 
+from aircraft import AircraftError, load_aircraft
 from jsbsim_env.analysis.modes import LinearisationError, linear_modes
-from jsbsim_env.sim.simulation import ALTITUDE_RANGE_M, EAS_RANGE_MPS, Simulation, TrimError
-from training.runtime import ScriptParser, number_type, run_command
+from jsbsim_env.sim.simulation import Simulation, TrimError
+from training.runtime import ScriptParser, add_aircraft_options, check_in_envelope, finite_float, run_command
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
-    parser.add_argument("--altitude-m", type=number_type(float, *ALTITUDE_RANGE_M, unit="m", outside="the flight envelope"), required=True,
-                        help=f"altitude above sea level, m (the envelope: {ALTITUDE_RANGE_M[0]:g}-{ALTITUDE_RANGE_M[1]:g})")
-    parser.add_argument("--veas-mps", type=number_type(float, *EAS_RANGE_MPS, unit="m/s", outside="the flight envelope"), required=True,
-                        help=f"equivalent airspeed, m/s (the envelope: {EAS_RANGE_MPS[0]:g}-{EAS_RANGE_MPS[1]:g})")
+    add_aircraft_options(parser, "the condition must lie in its envelope", transfer=False)
+    parser.add_argument("--altitude-m", type=finite_float, required=True,
+                        help="altitude above sea level, m, in the aircraft's envelope (the paper's: 0-20,000)")
+    parser.add_argument("--veas-mps", type=finite_float, required=True,
+                        help="equivalent airspeed, m/s, in the aircraft's envelope (the paper's: 8-12)")
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     parser.add_argument("--modes", action="store_true", help="add the linear modes from JSBSim's linearisation")
     args = parser.parse_args(argv)
+    try:
+        flown = load_aircraft(args.aircraft)
+        check_in_envelope(args.altitude_m, flown.altitude_range_m, "--altitude-m", "m", flown.name)
+        check_in_envelope(args.veas_mps, flown.eas_range_mps, "--veas-mps", "m/s", flown.name)
+    except (AircraftError, ValueError) as err:
+        print(f"trim: {err}", file=sys.stderr)
+        return 2
 
-    sim = Simulation()
+    sim = Simulation(flown)
     try:
         trim = sim.trim(args.altitude_m, args.veas_mps)
         result = trim.as_dict()
         if args.modes:
             result["modes"] = linear_modes(sim, trim)
     except (TrimError, LinearisationError) as err:
-        print(f"trim.py: {err}", file=sys.stderr)
+        print(f"trim: {err}", file=sys.stderr)
         return 2
     if args.json:
         print(json.dumps(result, indent=2))

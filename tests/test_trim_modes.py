@@ -149,7 +149,7 @@ def test_trim_cli_at_sea_level_the_floor_of_the_envelope():
 def test_trim_cli_fails_outside_the_envelope_with_a_reason():
     done = _run_trim_cli("--altitude-m", "30000", "--veas-mps", "10", "--json")
     assert done.returncode != 0
-    assert "outside the flight envelope" in done.stderr and done.stdout == ""
+    assert done.stderr == "trim: --altitude-m 30000 is outside solar_uav's envelope, [0, 20000] m\n" and done.stdout == ""
 
 
 @pytest.mark.slow

@@ -179,7 +179,8 @@ def run_command(main: Callable[[], int | None], script: str | Path) -> None:
     """Run a command's ``main`` and exit with its code. A stop request ends it in one line on stderr,
     ``NAME: stopped by SIGINT (Ctrl-C) before it finished``, with a shell's exit code for the signal
     (130 or 143), never a traceback: Ctrl-C (SIGINT) and SIGTERM both raise ``KeyboardInterrupt``
-    in the main thread. A command that keeps partial work says so itself before this line."""
+    in the main thread. A command that keeps partial work says so itself before this line. A
+    reader that stops reading (``| head``) ends it quietly."""
     name = Path(script).stem
     if threading.current_thread() is threading.main_thread():  # the only thread that may set handlers
         signal.signal(signal.SIGTERM, _raise_stopped)
@@ -190,6 +191,11 @@ def run_command(main: Callable[[], int | None], script: str | Path) -> None:
         print(f"{name}: stopped by {which}{' (Ctrl-C)' if which == 'SIGINT' else ''} before it finished",
               file=sys.stderr)
         code = 128 + int(getattr(signal, which))
+    except BrokenPipeError:
+        # What reads the output has stopped (``| head``): end quietly, as a shell tool does; stdout
+        # goes nowhere so that the interpreter's own flush at exit does not fail again.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        code = 128 + int(signal.SIGPIPE)
     sys.exit(code)
 
 
@@ -281,14 +287,25 @@ def number_type(kind: type = float, low: float | None = None, high: float | None
     return convert
 
 
-def add_aircraft_options(parser: argparse.ArgumentParser, where: str) -> None:
+def add_aircraft_options(parser: argparse.ArgumentParser, where: str, transfer: bool = True) -> None:
     """``--aircraft`` (the aircraft flown; ``where`` says how the command's flights move into its
-    envelope) and ``--transfer`` (a policy flown on an aircraft it was not trained on)."""
+    envelope) and, where ``transfer``, ``--transfer`` (a policy flown on an aircraft it was not
+    trained on)."""
     parser.add_argument("--aircraft", default=AIRCRAFT_NAME,
                         help="the aircraft flown: a packaged aircraft's name or a folder built by "
                              f"scripts/build_aircraft.py --out (default: the paper's, solar_uav); {where}")
-    parser.add_argument("--transfer", action="store_true",
-                        help="fly a policy on an aircraft it was not trained on (a transfer experiment)")
+    if transfer:
+        parser.add_argument("--transfer", action="store_true",
+                            help="fly a policy on an aircraft it was not trained on (a transfer experiment)")
+
+
+def check_in_envelope(value: float, bounds: tuple[float, float], option: str, unit: str, aircraft_name: str) -> float:
+    """``value`` of ``option`` where it lies in ``bounds`` (a range of the aircraft's envelope);
+    otherwise ``ValueError``: "--altitude-m 25000 is outside small_solar_uav's envelope, [0, 3000] m"."""
+    low, high = bounds
+    if not low <= value <= high:
+        raise ValueError(f"{option} {value:g} is outside {aircraft_name}'s envelope, [{low:g}, {high:g}] {unit}")
+    return value
 
 
 def name_list(text: str, allowed, option: str) -> list[str]:
