@@ -84,6 +84,18 @@ class Aircraft:
         return self.root / "aircraft" / self.name
 
     @property
+    def command_low(self) -> tuple[float, float, float, float]:
+        """The lowest command: aileron, elevator, rudder at their travel (deg), throttle 0."""
+        aileron, elevator, rudder = self.surface_limits_deg
+        return (-aileron, -elevator, -rudder, 0.0)
+
+    @property
+    def command_high(self) -> tuple[float, float, float, float]:
+        """The highest command: aileron, elevator, rudder at their travel (deg), throttle 1."""
+        aileron, elevator, rudder = self.surface_limits_deg
+        return (aileron, elevator, rudder, 1.0)
+
+    @property
     def packaged(self) -> bool:
         """Whether this is an aircraft that ships with the package (the paper's)."""
         return self.root == jsbsim_root()

@@ -99,15 +99,49 @@ def test_the_environments_fly_the_second_aircraft_in_its_own_envelope(small):
     assert td["next", "observation"].shape == (2, 5, 8, 20)
 
 
-def test_the_commands_reach_the_surfaces_as_the_aircraft_limits_them(small):
-    from jsbsim_env.sim.core import CoreConfig, FlightCore
+def test_the_commands_range_over_the_aircrafts_own_travel(small):
+    from jsbsim_env.control.observation import action_scale, action_to_command
+    from jsbsim_env.control.pid import PIDAttitudeController
+    from jsbsim_env.sim.core import CommandError, CoreConfig, FlightCore
+    from jsbsim_env.task.attitude import AttitudeTaskBatch, TaskConfig
 
     core = FlightCore(CoreConfig.ideal(aircraft=str(small), servo_rate_limit_degps=1000.0))
     core.reset(0, altitude_m=1000.0, airspeed_eas_mps=12.0)
-    for command, expected in (([10.0, 0.0, 0.0, 0.6], 10.0), ([30.0, 0.0, 0.0, 0.6], 25.0)):
+    for command, expected in (([10.0, 0.0, 0.0, 0.6], 10.0), ([25.0, 0.0, 0.0, 0.6], 25.0)):
         for _ in range(25):
             core.step(np.array(command))
         assert core.sim["fcs/aileron-pos-deg"] == pytest.approx(expected, abs=0.05)
+    with pytest.raises(CommandError, match="outside small_solar_uav's range"):
+        core.step(np.array([30.0, 0.0, 0.0, 0.6]))  # the paper's aircraft's travel, beyond this one's stop
+    # An action of +-1 is the stop of each surface (the paper's: 30, 30, 20 deg), in the task and the stack.
+    found = aircraft.load_aircraft(small)
+    scale = action_scale(found)
+    assert scale.tolist() == [25.0, 25.0, 25.0, 0.5] and action_scale(aircraft.load_aircraft()).tolist() == [
+        30.0, 30.0, 20.0, 0.5]
+    assert action_to_command(np.array([1.0, -1.0, 1.0, 1.0]), scale).tolist() == [25.0, -25.0, 25.0, 1.0]
+    batch = AttitudeTaskBatch(1, TaskConfig(core=CoreConfig.ideal(aircraft=str(small))))
+    batch.reset_one(0, 0, altitude_m=1000.0, airspeed_eas_mps=12.0)
+    batch.step(np.array([[0.0, 0.0, 1.0, 0.5]]))
+    assert batch.cores[0].applied_command[2] == pytest.approx(25.0)
+    # A classical controller clips at this aircraft's travel, not the paper's.
+    pid = PIDAttitudeController(aircraft=small)
+    measurement = [1000.0, np.radians(-40.0), 0.0, 0.0, 0.0, 0.0, 12.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5]
+    assert abs(pid.update(0.05, measurement, [0.0, 0.0, 12.0])[0]) == pytest.approx(25.0)
+
+
+def test_each_episode_flies_the_servo_rate_limit_of_the_description(small):
+    from jsbsim_env.sim.core import CoreConfig, FlightCore
+
+    described = load_description(SMALL_AIRCRAFT).surface_rate_limit_deg_per_s
+    assert described == 300.0
+    for aircraft_spec, rate_degps in ((str(small), described), (aircraft.AIRCRAFT_NAME, 100.0)):
+        core = FlightCore(CoreConfig(aircraft=aircraft_spec))
+        core.reset(0)
+        assert core.sim["fcs/surface-rate-limit-deg_s"] == pytest.approx(rate_degps)
+    # A rate given (a sweep's axis) replaces it.
+    core = FlightCore(CoreConfig(aircraft=str(small), servo_rate_limit_degps=40.0))
+    core.reset(0)
+    assert core.sim["fcs/surface-rate-limit-deg_s"] == pytest.approx(40.0)
 
 
 def test_its_classical_controllers_are_designed_for_it_and_fly_it(small):

@@ -60,7 +60,6 @@ from jsbsim_env.bench.wire import (
 from jsbsim_env.control.factory import CONTROLLER_NAMES
 from jsbsim_env.control.pid import PIDAttitudeController
 from jsbsim_env.missions import MissionResult, RouteConfig, RouteFlight
-from jsbsim_env.sim.core import COMMAND_HIGH, COMMAND_LOW
 
 NETWORK, HOLD, PID = 0, 1, 2
 SOURCE_NAMES = ("network", "hold", "pid")
@@ -257,6 +256,8 @@ class Plant:
 
     def __init__(self, cfg: BenchConfig):
         self.cfg = cfg
+        flown = load_aircraft(cfg.aircraft)
+        self.command_low, self.command_high = np.array(flown.command_low), np.array(flown.command_high)
         self.link = new_link(PLANT_SYSTEM_ID)
         self.frame_s = 1.0 / cfg.rate_hz
         self.answers: dict[int, tuple[float, np.ndarray]] = {}  # frame time (us) -> (arrival, command)
@@ -282,8 +283,8 @@ class Plant:
                 time_us, command = decode_command(message)
                 # A well-formed message can still carry a command no actuator takes (NaN, out of
                 # range): it is counted and treated as no answer.
-                if np.all(command >= COMMAND_LOW - 1e-6) and np.all(command <= COMMAND_HIGH + 1e-6):
-                    self.answers[time_us] = (now, np.clip(command, COMMAND_LOW, COMMAND_HIGH))
+                if np.all(command >= self.command_low - 1e-6) and np.all(command <= self.command_high + 1e-6):
+                    self.answers[time_us] = (now, np.clip(command, self.command_low, self.command_high))
                 else:
                     self.counts["bad_commands"] += 1
 

@@ -9,7 +9,7 @@ rate limits and backlash. Units follow ``jsbsim_env.sim.core``:
 | ``dt_s`` | seconds since the previous call (the control interval) |
 | ``measurement`` | ``core.STATE_NAMES``: altitude m, roll, pitch rad, p, q, r rad/s, V_eas m/s, alpha, beta rad, aileron, elevator, rudder rad, throttle |
 | ``setpoint`` | roll_cmd rad, pitch_cmd rad, V_eas_cmd m/s |
-| returns | aileron, elevator, rudder deg, throttle 0..1, inside ``core.COMMAND_LOW``/``COMMAND_HIGH`` |
+| returns | aileron, elevator, rudder deg, throttle 0..1, inside the aircraft's range (``Aircraft.command_low``/``command_high``) |
 """
 
 from __future__ import annotations

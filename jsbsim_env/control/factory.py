@@ -67,11 +67,11 @@ def make_controller(name: str, policy=None, backend: str = "onnx", network_alone
 
         return LQIAttitudeController(aircraft=aircraft)
     if name == "pid_tuned":
-        return PIDAttitudeController(gains_path=tuned_gain_file(name, aircraft))
+        return PIDAttitudeController(gains_path=tuned_gain_file(name, aircraft), aircraft=aircraft)
     if name == "lqi_tuned":
         from jsbsim_env.control.lqi import LQIAttitudeController
 
-        return LQIAttitudeController(gains_path=tuned_gain_file(name, aircraft))
+        return LQIAttitudeController(gains_path=tuned_gain_file(name, aircraft), aircraft=aircraft)
     raise ValueError(f"controller must be one of {', '.join(CONTROLLER_NAMES)}, got {name!r}")
 
 

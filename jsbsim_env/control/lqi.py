@@ -39,6 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
+from aircraft import load_aircraft
 from jsbsim_env.control import gain_files, tuning
 from jsbsim_env.control.pid import (
     DESIGN_ALTITUDES_M,
@@ -50,7 +51,6 @@ from jsbsim_env.control.pid import (
     design_eas_of,
     read_gain_file,
 )
-from jsbsim_env.sim.core import COMMAND_HIGH, COMMAND_LOW
 from jsbsim_env.sim.simulation import Simulation
 
 GAINS_PATH = gain_files.PACKAGED_DIR / gain_files.FILES["lqi"]  # the paper's aircraft's
@@ -276,11 +276,14 @@ class LQIAttitudeController:
     def __init__(self, schedule: LQIGainSchedule | None = None, feedforward: bool = True,
                  gains_path: Path | str | None = None, aircraft=None):
         """``schedule``, or the gain table at ``gains_path`` (a tuned one), or ``aircraft``'s table
-        (``gain_files.gain_file``; the paper's aircraft's ``lqi_gains.json`` by default)."""
+        (``gain_files.gain_file``; the paper's aircraft's ``lqi_gains.json`` by default). Commands
+        are clipped to ``aircraft``'s travel (the paper's aircraft's by default), whichever table flies."""
         if schedule is not None and gains_path is not None:
             raise ValueError("give a schedule or a gain file, not both")
         self.schedule = schedule or LQIGainSchedule(gain_files.gain_file("lqi", aircraft) if gains_path is None
                                                     else gains_path)
+        flown = load_aircraft(aircraft)
+        self._command_low, self._command_high = list(flown.command_low), list(flown.command_high)
         self.feedforward = feedforward
         self.reset()
 
@@ -312,8 +315,7 @@ class LQIAttitudeController:
         ail_cmd, rud_cmd = _block(g, _N_LONG, (beta, roll, p, r, ail * deg / q_s, rud * deg / q_s),
                                   (last[0] / q_s, last[2] / q_s), (self.z_roll, self.z_beta), (ff * sp[0], 0.0))
         raw = [q_s * ail_cmd, e_trim + q_s * elev_cmd, q_s * rud_cmd, t_trim + thr_cmd]
-        lo, hi = COMMAND_LOW.tolist(), COMMAND_HIGH.tolist()
-        clipped = [min(max(v, a), b) for v, a, b in zip(raw, lo, hi)]
+        clipped = [min(max(v, a), b) for v, a, b in zip(raw, self._command_low, self._command_high)]
 
         # Anti-windup: each integrator against the actuator its own gain drives (the diagonal of K_z).
         lim_s, lim_t = SURFACE_INTEGRATOR_LIMIT_DEG / q_s, THROTTLE_INTEGRATOR_LIMIT

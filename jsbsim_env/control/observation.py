@@ -88,20 +88,30 @@ OBSERVATION_TABLE = tuple(
         OBS_OFFSET, OBS_SCALE)
 )
 
-# Action -> physical command: command = ACTION_OFFSET + ACTION_SCALE * action.
-ACTION_SCALE = np.array([30.0, 30.0, 20.0, 0.5])
+# Action -> physical command: command = ACTION_OFFSET + scale * action, where the scale is the
+# aircraft's surface travel and half the throttle range (``action_scale``): an action of +-1 puts a
+# surface at its stop, on every aircraft. ACTION_SCALE is the paper's aircraft's (its Table 2).
 ACTION_OFFSET = np.array([0.0, 0.0, 0.0, 0.5])
+THROTTLE_ACTION_SCALE = 0.5
+ACTION_SCALE = np.array([30.0, 30.0, 20.0, THROTTLE_ACTION_SCALE])
 ACTION_TOLERANCE = 1e-6
 _ACT_SCALE, _ACT_OFFSET = ACTION_SCALE.tolist(), ACTION_OFFSET.tolist()
 _OBS_OFFSET_LIST, _OBS_INV_SCALE_LIST = OBS_OFFSET.tolist(), (1.0 / OBS_SCALE).tolist()
+
+
+def action_scale(aircraft) -> np.ndarray:
+    """An ``aircraft.Aircraft``'s action scale: its aileron, elevator and rudder travel (deg) and
+    half the throttle range (the paper's aircraft's is ``ACTION_SCALE``)."""
+    return np.array([*aircraft.surface_limits_deg, THROTTLE_ACTION_SCALE])
 
 
 class ActionError(ValueError):
     """An action that is not finite, lies outside [-1, 1], or has the wrong shape."""
 
 
-def action_to_command(action: np.ndarray) -> np.ndarray:
-    """Map a policy action in [-1, 1]^4 to aileron, elevator, rudder (deg) and throttle (0..1)."""
+def action_to_command(action: np.ndarray, scale: np.ndarray = ACTION_SCALE) -> np.ndarray:
+    """Map a policy action in [-1, 1]^4 to aileron, elevator, rudder (deg) and throttle (0..1) of
+    the aircraft whose ``action_scale`` is ``scale`` (the paper's by default)."""
     a = np.asarray(action, dtype=float)
     if a.shape != (ACTION_SIZE,):
         raise ActionError(f"action must have shape ({ACTION_SIZE},), got {a.shape}")
@@ -110,18 +120,18 @@ def action_to_command(action: np.ndarray) -> np.ndarray:
     limit = 1.0 + ACTION_TOLERANCE
     if not all(-limit <= x <= limit for x in a.tolist()):
         raise ActionError(f"action {a} is not finite or outside [-1, 1]")
-    return ACTION_OFFSET + ACTION_SCALE * np.minimum(np.maximum(a, -1.0), 1.0)
+    return ACTION_OFFSET + scale * np.minimum(np.maximum(a, -1.0), 1.0)
 
 
-def action_list_to_command(action: list[float]) -> list[float]:
-    """``action_to_command`` on a list of four floats already in [-1, 1], as a list: what the
-    per-step loops use (a few microseconds less than the array version)."""
-    return [o + k * x for x, k, o in zip(action, _ACT_SCALE, _ACT_OFFSET)]
+def action_list_to_command(action: list[float], scale: list[float] = _ACT_SCALE) -> list[float]:
+    """``action_to_command`` on a list of four floats already in [-1, 1], with ``scale`` as a list:
+    what the per-step loops use (a few microseconds less than the array version)."""
+    return [o + k * x for x, k, o in zip(action, scale, _ACT_OFFSET)]
 
 
-def command_to_action(command: np.ndarray) -> np.ndarray:
+def command_to_action(command: np.ndarray, scale: np.ndarray = ACTION_SCALE) -> np.ndarray:
     """Inverse of ``action_to_command``."""
-    return (np.asarray(command, dtype=float) - ACTION_OFFSET) / ACTION_SCALE
+    return (np.asarray(command, dtype=float) - ACTION_OFFSET) / scale
 
 
 def scale_observation(state: np.ndarray, last_action: np.ndarray, goal: np.ndarray) -> np.ndarray:
@@ -193,10 +203,12 @@ __all__ = [
     "OBS_OFFSET",
     "OBS_SCALE",
     "OBS_SIZE",
+    "THROTTLE_ACTION_SCALE",
     "ActionError",
     "ObservationEntry",
     "ObservationWindow",
     "action_list_to_command",
+    "action_scale",
     "action_to_command",
     "command_to_action",
     "initial_last_action",

@@ -27,8 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
+from aircraft import load_aircraft
 from jsbsim_env.control import gain_files, tuning
-from jsbsim_env.sim.core import COMMAND_HIGH, COMMAND_LOW
 from jsbsim_env.sim.simulation import Simulation
 
 DESIGN_ALTITUDES_M = (500.0, 1000.0, 2000.0, 5000.0, 10000.0, 15000.0, 20000.0)
@@ -177,12 +177,15 @@ class PIDAttitudeController:
 
     def __init__(self, schedule: GainSchedule | None = None, gains_path: Path | str | None = None, aircraft=None):
         """``schedule``, or the gain table at ``gains_path`` (a tuned one), or ``aircraft``'s table
-        (``gain_files.gain_file``; the paper's aircraft's ``pid_gains.json`` by default)."""
+        (``gain_files.gain_file``; the paper's aircraft's ``pid_gains.json`` by default). Commands
+        are clipped to ``aircraft``'s travel (the paper's aircraft's by default), whichever table flies."""
         if schedule is not None and gains_path is not None:
             raise ValueError("give a schedule or a gain file, not both")
         self.schedule = schedule or GainSchedule(gain_files.gain_file("pid", aircraft) if gains_path is None
                                                  else gains_path)
         self._design_eas_mps = self.schedule.design_eas_mps
+        flown = load_aircraft(aircraft)
+        self._command_low, self._command_high = np.array(flown.command_low), np.array(flown.command_high)
         self.reset()
 
     def reset(self) -> None:
@@ -210,7 +213,7 @@ class PIDAttitudeController:
         elevator = g.elevator_trim_deg + q_s * (g.k_pitch * e_pitch + g.k_q * q) + self.i_pitch_deg
         rudder = q_s * (g.k_r * washed + g.k_beta * beta)
         command = np.array([aileron, elevator, rudder, self._speed_loop(dt_s, g, e_eas)])
-        clipped = np.clip(command, COMMAND_LOW, COMMAND_HIGH)
+        clipped = np.clip(command, self._command_low, self._command_high)
 
         # Integrate unless the actuator is saturated in the direction the integral would push it.
         lim = SURFACE_INTEGRATOR_LIMIT_DEG
@@ -228,7 +231,7 @@ class PIDAttitudeController:
     def _speed_loop(self, dt_s: float, g: DesignPoint, e_eas: float) -> float:
         """Clipped throttle for the EAS error (measured minus demanded); integrates with anti-windup."""
         raw = g.throttle_trim - g.k_eas * e_eas + self.i_throttle
-        clipped = min(max(raw, float(COMMAND_LOW[3])), float(COMMAND_HIGH[3]))
+        clipped = min(max(raw, 0.0), 1.0)  # the throttle's range
         self.i_throttle = _integrate(self.i_throttle, -g.k_eas_i * e_eas * dt_s, raw, clipped,
                                      THROTTLE_INTEGRATOR_LIMIT)
         return clipped

@@ -24,6 +24,7 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
+from aircraft import load_aircraft
 from jsbsim_env.control.gain_files import gain_file
 from jsbsim_env.control.integrals import ErrorIntegrals, check_error_integrals
 from jsbsim_env.control.observation import (
@@ -31,6 +32,7 @@ from jsbsim_env.control.observation import (
     INTEGRAL_SCALE_DEG_S,
     ObservationWindow,
     action_list_to_command,
+    action_scale,
     initial_last_action,
     observation_size,
     scale_row,
@@ -121,8 +123,12 @@ class ControlStack:
 
     def __init__(self, settings: StackSettings | None = None, aircraft=None):
         self.settings = s = settings or StackSettings()
+        flown = load_aircraft(aircraft)
+        # An action of +-1 puts a surface at this aircraft's stop, as in training on it.
+        self._action_scale = action_scale(flown).tolist()
         self.goal_trim = GoalTrim(s.goal_trim_time_constant_s) if s.goal_trim_time_constant_s else None
-        self.surface_trim = (SurfaceTrim(s.surface_trim_gain, GainSchedule(gain_file("pid", aircraft)))
+        self.surface_trim = (SurfaceTrim(s.surface_trim_gain, GainSchedule(gain_file("pid", flown)),
+                                         flown.surface_limits_deg[:2])
                              if s.surface_trim_gain else None)
         self.integrals = ErrorIntegrals() if s.error_integrals else None
         self.window = ObservationWindow(s.window_steps, s.observation_size)
@@ -165,7 +171,7 @@ class ControlStack:
         measurement, asked, dt_s = self._step
         self._step = None
         self.last_action = action
-        command = action_list_to_command(action)  # within the actuators' travel for actions in [-1, 1]
+        command = action_list_to_command(action, self._action_scale)  # within the travel for actions in [-1, 1]
         if self.surface_trim is not None:
             command = self.surface_trim.apply(command)  # clips the trimmed surfaces to their travel
         if self.goal_trim is not None:

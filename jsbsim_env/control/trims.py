@@ -34,9 +34,9 @@ from jsbsim_env.control.pid import (
     DesignPoint,
     GainSchedule,
 )
-from jsbsim_env.sim.core import COMMAND_HIGH, COMMAND_LOW, STATE_NAMES
+from jsbsim_env.sim.core import COMMAND_HIGH, STATE_NAMES
 
-_SURFACE_LOW, _SURFACE_HIGH = COMMAND_LOW[:2].tolist(), COMMAND_HIGH[:2].tolist()
+_SURFACE_HIGH = COMMAND_HIGH[:2].tolist()  # the paper's aircraft's aileron and elevator travel
 _ROLL, _PITCH = STATE_NAMES.index("roll_rad"), STATE_NAMES.index("pitch_rad")
 _AILERON = STATE_NAMES.index("aileron_rad")  # then the elevator's position
 SURFACE_TRIM_GAIN_RANGE = (0.0, 2.0)  # fraction of the PID's integral gains; 0 means no stage
@@ -67,11 +67,15 @@ class SurfaceTrim:
     """The aileron and elevator trims (deg) of one aircraft, on plain floats (the batched task keeps
     one per aircraft and calls it every control step)."""
 
-    def __init__(self, gain: float, schedule: GainSchedule | None = None):
+    def __init__(self, gain: float, schedule: GainSchedule | None = None,
+                 travel_deg: tuple[float, float] = (_SURFACE_HIGH[0], _SURFACE_HIGH[1])):
+        """``travel_deg``: the aileron's and elevator's travel that a trimmed command is clipped to
+        (an ``Aircraft``'s ``surface_limits_deg[:2]``; the paper's aircraft's by default)."""
         check_surface_trim_gain(gain)
         if gain == 0.0:
             raise ValueError("a surface trim stage needs a gain above 0 (0 means no stage)")
         self.gain = float(gain)
+        self._low, self._high = [-float(t) for t in travel_deg], [float(t) for t in travel_deg]
         names = [f.name for f in fields(DesignPoint)]  # the order of the schedule's columns
         self._schedule = schedule or GainSchedule()
         self._gain_columns = tuple(names.index(c) for c in ("k_roll_i", "k_pitch_i"))
@@ -104,7 +108,7 @@ class SurfaceTrim:
         out = list(command)
         for j in range(2):
             wanted = out[j] + self.trim_deg[j]
-            out[j] = min(max(wanted, _SURFACE_LOW[j]), _SURFACE_HIGH[j])
+            out[j] = min(max(wanted, self._low[j]), self._high[j])
             self._held[j] = wanted - out[j]
         return out
 

@@ -46,7 +46,9 @@ STATE_NAMES = ("altitude_m", "roll_rad", "pitch_rad", "p_radps", "q_radps", "r_r
 N_STATE = len(STATE_NAMES)
 # The paper's Table 3: OU noise sigma per state element (same order).
 NOISE_SIGMA = np.array([0.0, 1e-3, 1e-3, 1e-3, 1e-3, 1e-3, 0.01, 1e-3, 1e-3, 0.0, 0.0, 0.0, 0.0])
-# Command order and limits (the paper's Table 2): aileron, elevator, rudder in degrees, throttle 0..1.
+# Command order and the paper's aircraft's limits (its Table 2): aileron, elevator, rudder in
+# degrees, throttle 0..1. Another aircraft's are its own travel (``FlightCore.command_low``/``high``,
+# ``Aircraft.command_low``/``high``).
 COMMAND_LOW = np.array([-SURFACE_LIMITS_DEG["aileron"], -SURFACE_LIMITS_DEG["elevator"], -SURFACE_LIMITS_DEG["rudder"],
                         0.0])
 COMMAND_HIGH = -COMMAND_LOW + np.array([0.0, 0.0, 0.0, 1.0])
@@ -95,7 +97,9 @@ class CoreConfig:
     # rates at the clip 15-36 % of the time.
     turbulence_clip: str = "4sigma"
     backlash_deg: float = 0.0
-    servo_rate_limit_degps: float = 100.0  # every surface servo (the paper's Section 2 and Table 1)
+    # Every surface servo's rate limit; None: the aircraft's own (its description's
+    # actuators.surface_rate_limit_deg_per_s in its FlightControl.xml; the paper's: 100).
+    servo_rate_limit_degps: float | None = None
     noise_scale: float = 1.0  # multiplies every sigma of the paper's Table 3 (robustness sweeps)
     parameter_strength: float = 1.0  # multiplies each Table 4 draw's distance from 1 (0: nominal aircraft)
     altitude_range_m: tuple[float, float] | None = None  # None: the aircraft's start range
@@ -130,7 +134,7 @@ class CoreConfig:
             raise ValueError(f"control_interval_s must be positive, got {self.control_interval_s}")
         if not (0.0 <= self.turbulence_sigma_mps < math.inf):  # NaN fails too
             raise ValueError(f"turbulence_sigma_mps must be finite and >= 0, got {self.turbulence_sigma_mps}")
-        if not self.servo_rate_limit_degps > 0.0:  # NaN fails too
+        if self.servo_rate_limit_degps is not None and not self.servo_rate_limit_degps > 0.0:  # NaN fails too
             raise ValueError(f"servo_rate_limit_degps must be positive, got {self.servo_rate_limit_degps}")
         # The start ranges as ranges here; FlightCore checks them against where its aircraft can start.
         for name in ("altitude_range_m", "eas_range_mps"):
@@ -233,7 +237,9 @@ class FlightCore:
         self.noise = dist.OrnsteinUhlenbeckNoise([self.config.noise_scale * s for s in NOISE_SIGMA],
                                                  self.config.noise_reversion_per_s)
         self._load()
-        # JSBSim's normalised commands are fractions of the aircraft's own surface travel.
+        # The commands' range is the aircraft's own travel; JSBSim's normalised commands are
+        # fractions of it.
+        self.command_low, self.command_high = np.array(self.aircraft.command_low), np.array(self.aircraft.command_high)
         limits = self.sim.surface_limits_deg
         self._command_scale = (1.0 / limits["aileron"], 1.0 / limits["elevator"], 1.0 / limits["rudder"], 1.0)
         self.start_altitude_range_m, self.start_eas_range_mps = start_ranges(self.sim, self.span_m)
@@ -346,7 +352,8 @@ class FlightCore:
         for term in SCALED_TERMS:
             f[f"aero/scale/{term}"] = scales.get(term, 1.0)
         f["fcs/backlash-width-deg"] = cfg.backlash_deg
-        f["fcs/surface-rate-limit-deg_s"] = cfg.servo_rate_limit_degps
+        if cfg.servo_rate_limit_degps is not None:  # else the model's own, as its file sets it
+            f["fcs/surface-rate-limit-deg_s"] = cfg.servo_rate_limit_degps
         for s in self._set_gust + self._set_gust_rate:
             s(0.0)
         # The nominal aircraft's trim, interpolated; with scaled coefficients the start is then
@@ -391,8 +398,9 @@ class FlightCore:
         if command.shape != (4,):
             raise CommandError(f"command must have 4 elements (aileron, elevator, rudder, throttle), got {command.shape}")
         # Written so that NaN fails too (every comparison with NaN is false).
-        if not (np.all(command >= COMMAND_LOW - 1e-9) and np.all(command <= COMMAND_HIGH + 1e-9)):
-            raise CommandError(f"command {command} is not finite or outside [{COMMAND_LOW}, {COMMAND_HIGH}]")
+        if not (np.all(command >= self.command_low - 1e-9) and np.all(command <= self.command_high + 1e-9)):
+            raise CommandError(f"command {command} is not finite or outside {self.aircraft.name}'s range "
+                               f"[{self.command_low}, {self.command_high}]")
         return command
 
     def step(self, command: np.ndarray, checked: bool = False) -> np.ndarray:

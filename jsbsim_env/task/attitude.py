@@ -39,13 +39,13 @@ from jsbsim_env.control.gain_files import gain_file
 from jsbsim_env.control.integrals import ErrorIntegrals, check_error_integrals
 from jsbsim_env.control.observation import (
     ACTION_OFFSET,
-    ACTION_SCALE,
     ACTION_SIZE,
     ACTION_TOLERANCE,
     GOAL_NAMES,
     OBS_SIZE,
     ActionError,
     action_list_to_command,
+    action_scale,
     initial_last_action,
     observation_size,
     scale_row,
@@ -93,7 +93,7 @@ PRIVILEGED_NAMES = (*(f"true_{n}" for n in STATE_NAMES), "gust_u", "gust_v", "gu
                     "held_rudder", "held_throttle")
 PRIVILEGED_SIZE = len(PRIVILEGED_NAMES)
 _NO_TRIM = [0.0, 0.0]
-_ACTION_OFFSET, _ACTION_SCALE = ACTION_OFFSET.tolist(), ACTION_SCALE.tolist()
+_ACTION_OFFSET = ACTION_OFFSET.tolist()
 
 
 def _penalty(x: float, cap: float, tail: float) -> float:
@@ -210,6 +210,9 @@ class AttitudeTaskBatch:
         self.cores = [FlightCore(self.config.core) for _ in range(n)]
         self.aircraft = self.cores[0].aircraft
         self.goal_low, self.goal_high = goal_range(self.aircraft)
+        # An action of +-1 puts a surface at this aircraft's stop (``observation.action_scale``).
+        self.action_scale = action_scale(self.aircraft)
+        self._action_scale = self.action_scale.tolist()
         self.states: list[list[float]] = [[0.0] * N_STATE for _ in range(n)]  # true states
         self.noise: list[list[float]] = [[0.0] * N_STATE for _ in range(n)]
         self.goals = np.zeros((n, 3))
@@ -225,11 +228,13 @@ class AttitudeTaskBatch:
         # The aircraft's PID gains, read once for all.
         schedule = (GainSchedule(gain_file("pid", self.aircraft)) if trim > 0.0 or self._external_share > 0.0
                     else None)
-        self._trims = [SurfaceTrim(trim, schedule) for _ in range(n)] if trim > 0.0 else None
+        self._trims = ([SurfaceTrim(trim, schedule, self.aircraft.surface_limits_deg[:2]) for _ in range(n)]
+                       if trim > 0.0 else None)
         tc = self.config.goal_trim_time_constant_s
         self._goal_trims = [GoalTrim(tc) for _ in range(n)] if tc > 0.0 else None
         self._integrals = [ErrorIntegrals() for _ in range(n)] if self.config.error_integrals else None
-        self._speed_holds = [PIDAttitudeController(schedule) for _ in range(n)] if self._external_share > 0.0 else None
+        self._speed_holds = ([PIDAttitudeController(schedule, aircraft=self.aircraft) for _ in range(n)]
+                             if self._external_share > 0.0 else None)
         self._sideslip_weight, self._roll_weight = self.config.sideslip_weight, self.config.roll_weight
         self._pitch_weight = self.config.pitch_weight
         self._penalty_tail = self.config.penalty_tail
@@ -299,7 +304,7 @@ class AttitudeTaskBatch:
         self.steps += 1
         for i, (core, a) in enumerate(zip(self.cores, rows)):
             a = self.last_actions[i] = [min(max(x, -1.0), 1.0) for x in a]
-            command = action_list_to_command(a)
+            command = action_list_to_command(a, self._action_scale)
             if self._trims is not None:
                 command = self._trims[i].apply(command)
             if self._goal_trims is not None:
@@ -399,7 +404,7 @@ class AttitudeTaskBatch:
                 if self._trims is not None else _NO_TRIM
             goal = [o / self._goal_trims[i].limit_rad for o in self._goal_trims[i].offset_rad] \
                 if self._goal_trims is not None else _NO_TRIM
-            held = [(c - o) / k for c, o, k in zip(core.applied_command, _ACTION_OFFSET, _ACTION_SCALE)]
+            held = [(c - o) / k for c, o, k in zip(core.applied_command, _ACTION_OFFSET, self._action_scale)]
             rows.append(scale_row(self.states[i] + pad)[:N_STATE]
                         + [g / 0.5 for g in gust[:3]] + [g / 0.005 for g in gust[3:]]
                         + [(scales.get(t, 1.0) - 1.0) / 0.2 for t in SCALED_TERMS]

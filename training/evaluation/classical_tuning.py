@@ -236,16 +236,17 @@ class Problem:
         return table
 
 
-def controller_from_table(controller: str, table: dict):
-    """A fresh PID or LQI that flies the gain table ``table``."""
+def controller_from_table(controller: str, table: dict, aircraft=None):
+    """A fresh PID or LQI that flies the gain table ``table`` on ``aircraft`` (its command range)."""
     if controller == "pid":
-        return PIDAttitudeController(GainSchedule.from_table(table, "(candidate)"))
-    return lqi.LQIAttitudeController(lqi.LQIGainSchedule.from_table(table, "(candidate)"))
+        return PIDAttitudeController(GainSchedule.from_table(table, "(candidate)"), aircraft=aircraft)
+    return lqi.LQIAttitudeController(lqi.LQIGainSchedule.from_table(table, "(candidate)"), aircraft=aircraft)
 
 
 def fly_table(controller: str, table: dict, quick: bool, aircraft=None) -> dict:
     """``heldout.heldout_scores`` of the controller with ``table`` (a process pool's task)."""
-    return heldout.heldout_scores(partial(controller_from_table, controller, table), quick, aircraft)
+    return heldout.heldout_scores(partial(controller_from_table, controller, table, aircraft=aircraft), quick,
+                                  aircraft)
 
 
 def reference_scores(quick: bool, aircraft=None) -> dict:

@@ -79,10 +79,10 @@ def fly(controller: AttitudeController, batch: AttitudeTaskBatch, seed: int, ste
         goal = batch.goals[0].copy()
         # The controller is told the episode's control interval, as a flight computer knows its loop rate.
         command = controller.update(core.setup.control_interval_s, batch.measurements()[0], goal)
-        action = np.clip(command_to_action(command), -1.0, 1.0)
+        action = np.clip(command_to_action(command, batch.action_scale), -1.0, 1.0)
         _, terms, terminated, truncated, codes = batch.step(action[None])
         total += terms[0, 4]
-        rec.record(core.time_s, batch.states[0], goal, action_to_command(action), terms[0, :4])
+        rec.record(core.time_s, batch.states[0], goal, action_to_command(action, batch.action_scale), terms[0, :4])
         end["steps"] = k + 1
         if terminated[0] or truncated[0]:
             end.update(terminated=bool(terminated[0]), truncated=bool(truncated[0]),

@@ -111,11 +111,13 @@ AXIS_RANGES: dict[str, AxisRange] = {
 
 def axis_ranges(aircraft=None) -> dict[str, AxisRange]:
     """``AXIS_RANGES`` for ``aircraft`` (the paper's by default): its own envelope on the altitude
-    and EAS axes."""
+    and EAS axes, its own smallest surface travel on the backlash axis."""
     flown = load_aircraft(aircraft)
     why = f"{flown.name}'s flight envelope, where a start is trimmed (its envelope.json)"
     return {**AXIS_RANGES, "altitude_m": AxisRange(*flown.altitude_range_m, why),
-            "eas_mps": AxisRange(*flown.eas_range_mps, why)}
+            "eas_mps": AxisRange(*flown.eas_range_mps, why),
+            "backlash_deg": AxisRange(0.0, min(flown.surface_limits_deg), f"at most {flown.name}'s smallest surface "
+                                                                          "travel")}
 
 
 def parse_axis(text: str, aircraft=None) -> tuple[str, list[float]]:
