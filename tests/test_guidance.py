@@ -170,8 +170,13 @@ def test_stored_gain_table_is_what_the_tuning_gives():
     table = GainSchedule()
     stored = table.at(DESIGN_ALTITUDES_M[0])
     fresh = design_gains(Simulation(), DESIGN_ALTITUDES_M[0])
+    # The gains are where a Nelder-Mead search stops, to 1e-3 in the logarithm of each (tuning.tune's
+    # xatol): a plant differing in its last digits (1e-13, as between CPUs) moves them by about 1e-6.
+    # The trim data come from the trim alone.
+    searched = set(tuning.LONG_GAIN_NAMES + tuning.LAT_GAIN_NAMES)
     for name, value in asdict(fresh).items():
-        assert getattr(stored, name) == pytest.approx(value, rel=1e-6, abs=1e-9), name
+        rel = 1e-3 if name in searched else 1e-6
+        assert getattr(stored, name) == pytest.approx(value, rel=rel, abs=1e-9), name
     plant = tuning.LinearPlant.at(Simulation(), 10_000.0, 10.0)
     point = table.at(10_000.0)
     for lateral, names in ((False, tuning.LONG_GAIN_NAMES), (True, tuning.LAT_GAIN_NAMES)):
