@@ -38,6 +38,17 @@ def measure(altitude_m: float, airspeed_eas_mps: float, aircraft: Aircraft | str
             "aileron_step": step, "modes": modes}
 
 
+def condition(args) -> tuple[Aircraft, float, float]:
+    """The aircraft ``args`` names, the altitude (m) and EAS (m/s) to measure at (its defaults where
+    not given), each checked against its envelope (``ValueError`` naming the option)."""
+    flown = load_aircraft(args.aircraft)
+    altitude_m = check_in_envelope(flown.altitude_like_m(DEFAULT_PAPER_ALTITUDE_M) if args.altitude_m is None
+                                   else args.altitude_m, flown.altitude_range_m, "--altitude-m", "m", flown.name)
+    eas_mps = check_in_envelope(flown.reference_eas_mps if args.veas_mps is None else args.veas_mps,
+                                flown.eas_range_mps, "--veas-mps", "m/s", flown.name)
+    return flown, altitude_m, eas_mps
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
     add_aircraft_options(parser, "the condition must lie in its envelope", transfer=False)
@@ -49,11 +60,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     args = parser.parse_args(argv)
     try:
-        flown = load_aircraft(args.aircraft)
-        altitude_m = check_in_envelope(flown.altitude_like_m(DEFAULT_PAPER_ALTITUDE_M) if args.altitude_m is None
-                                       else args.altitude_m, flown.altitude_range_m, "--altitude-m", "m", flown.name)
-        eas_mps = check_in_envelope(flown.reference_eas_mps if args.veas_mps is None else args.veas_mps,
-                                    flown.eas_range_mps, "--veas-mps", "m/s", flown.name)
+        flown, altitude_m, eas_mps = condition(args)
     except (AircraftError, ValueError) as err:
         print(f"derivatives: {err}", file=sys.stderr)
         return 2

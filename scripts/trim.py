@@ -12,10 +12,19 @@ from __future__ import annotations
 import json
 import sys
 
-from aircraft import AircraftError, load_aircraft
+from aircraft import Aircraft, AircraftError, load_aircraft
 from jsbsim_env.analysis.modes import LinearisationError, linear_modes
 from jsbsim_env.sim.simulation import Simulation, TrimError
 from training.runtime import ScriptParser, add_aircraft_options, check_in_envelope, finite_float, run_command
+
+
+def condition(args) -> Aircraft:
+    """The aircraft ``args`` names, with the condition checked against its envelope (``ValueError``
+    naming the option, its value and the envelope)."""
+    flown = load_aircraft(args.aircraft)
+    check_in_envelope(args.altitude_m, flown.altitude_range_m, "--altitude-m", "m", flown.name)
+    check_in_envelope(args.veas_mps, flown.eas_range_mps, "--veas-mps", "m/s", flown.name)
+    return flown
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -29,9 +38,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--modes", action="store_true", help="add the linear modes from JSBSim's linearisation")
     args = parser.parse_args(argv)
     try:
-        flown = load_aircraft(args.aircraft)
-        check_in_envelope(args.altitude_m, flown.altitude_range_m, "--altitude-m", "m", flown.name)
-        check_in_envelope(args.veas_mps, flown.eas_range_mps, "--veas-mps", "m/s", flown.name)
+        flown = condition(args)
     except (AircraftError, ValueError) as err:
         print(f"trim: {err}", file=sys.stderr)
         return 2

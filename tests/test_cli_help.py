@@ -38,11 +38,13 @@ def test_every_option_says_what_it_is_and_its_default(script, monkeypatch):
     if parser is None:
         pytest.skip(f"{script.name} takes no options")
     assert not parser.allow_abbrev, f"{script.name} takes abbreviated options"
-    shows_defaults = parser.formatter_class is argparse.ArgumentDefaultsHelpFormatter
+    formatter = parser.formatter_class(parser.prog)
     for action in parser._actions:
         if not action.option_strings or action.help == argparse.SUPPRESS or isinstance(action, argparse._HelpAction):
             continue
         name = action.option_strings[-1]
         assert action.help, f"{script.name} {name} has no help text"
-        if action.default not in (None, False) and not shows_defaults:
-            assert "default" in action.help, f"{script.name} {name} does not name its default {action.default!r}"
+        shown = formatter._get_help_string(action).lower()  # the help line as --help prints it
+        if action.default not in (None, False, [], (), argparse.SUPPRESS):
+            assert "default" in shown, f"{script.name} {name} does not name its default {action.default!r}"
+        assert shown.count("default:") <= 1, f"{script.name} {name} names its default twice: {shown!r}"

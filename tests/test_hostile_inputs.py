@@ -71,8 +71,27 @@ def _bench_config(parser: argparse.ArgumentParser, argv: list[str]) -> None:
     import_script("loop_bench").bench_config(parser.parse_args(argv))
 
 
+# Options a command requires, at valid values: given beside the hostile one.
+REQUIRED = {"trim": ["--altitude-m", "1000", "--veas-mps", "10"]}
+
+
+def _with_required(name: str, argv: list[str]) -> list[str]:
+    """``argv`` (one option and its value) with the command's other required options."""
+    required = REQUIRED.get(name, [])
+    given = {**dict(zip(required[::2], required[1::2])), **dict(zip(argv[::2], argv[1::2]))}
+    return [text for pair in given.items() for text in pair] if required else argv
+
+
+def _flight_condition(name: str):
+    """The check of a command that trims at a condition it takes (``condition(args)``)."""
+    def check(parser: argparse.ArgumentParser, argv: list[str]) -> None:
+        import_script(name).condition(parser.parse_args(_with_required(name, argv)))
+    return check
+
+
 # Commands whose settings are also checked after parsing, and how (given the parser and the arguments).
-LATER_CHECKS = {"train_torchrl": _train_config, "loop_bench": _bench_config}
+LATER_CHECKS = {"train_torchrl": _train_config, "loop_bench": _bench_config, "trim": _flight_condition("trim"),
+                "derivatives": _flight_condition("derivatives")}
 
 
 class _Captured(Exception):
@@ -155,7 +174,7 @@ def test_a_hostile_number_is_meaningful_or_refused_in_one_line(name, option, val
     if accepted and name != "train_torchrl":  # TrainConfig's ranges are training/config.py's to decide
         pytest.fail(f"{name} {option} {value} is refused, but it is meaningful (ACCEPTED)")
     action = next(a for a in _parser(name)._actions if option in a.option_strings)
-    argv = [option, *_values(action, value)]
+    argv = _with_required(name, [option, *_values(action, value)])
     if name == "train_torchrl":
         argv += ["--log.run_root", str(tmp_path)]  # nothing is written there: the value is refused first
     capsys.readouterr()

@@ -80,16 +80,21 @@ def _group_pids(pgid: int) -> set[int]:
     return {int(p) for p in out.split()}
 
 
-def test_ctrl_c_stops_the_benchmark_and_its_workers_in_one_line(tmp_path):
+@pytest.mark.parametrize("when", ["workers starting", "flights under way"])
+def test_ctrl_c_stops_the_benchmark_and_its_workers_in_one_line(when, tmp_path):
     proc = subprocess.Popen([sys.executable, str(SCRIPTS / "benchmark.py"), "--controllers", "policy,pid",
                              "--families", "turbulence", "--episodes", "10", "--workers", "2", "--no-progress",
                              "--out", str(tmp_path)], cwd=ROOT, env=_two_thread_env(), text=True,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
     try:
+        # The command, multiprocessing's resource tracker, then the workers: Ctrl-C as the first
+        # worker starts (it is still importing), or once both fly.
+        processes = 3 if when == "workers starting" else 4
         deadline = time.monotonic() + 120.0
-        while len(_group_pids(proc.pid)) < 4 and proc.poll() is None and time.monotonic() < deadline:
-            time.sleep(0.2)  # the command, multiprocessing's resource tracker and 2 workers
-        time.sleep(2.0)  # flights under way
+        while len(_group_pids(proc.pid)) < processes and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        if when == "flights under way":
+            time.sleep(2.0)
         assert proc.poll() is None, "the benchmark ended before it could be stopped"
         os.killpg(proc.pid, signal.SIGINT)  # as a terminal's Ctrl-C: the whole process group
         stopped = time.monotonic()

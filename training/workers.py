@@ -7,7 +7,7 @@ first parallel torch operation in the child then waits for them forever. Each wo
 torch thread (the thread variables are set before it starts, so before it imports torch): the
 workers share the machine's cores, and OpenMP threads beyond them only wait on each other.
 
-Ctrl-C reaches the whole process group; the workers ignore it and the parent, on its
+Ctrl-C reaches the whole process group; the workers ignore it (from their start) and the parent, on its
 ``KeyboardInterrupt`` (or any error), cancels the work not started and terminates its workers
 before the exception goes on, so that a stopped command ends in its own one line, not in a
 traceback from each worker.
@@ -20,20 +20,39 @@ import multiprocessing
 import os
 import signal
 import sys
+import threading
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 
 # The thread counts of the libraries a worker may load (torch's OpenMP and MKL, numpy's BLAS).
 THREAD_VARIABLES = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")
-START_METHOD = "spawn"
 STOP_GRACE_S = 5.0  # how long a terminated worker may take to end before it is killed
 
 
+class _WorkerProcess(multiprocessing.context.SpawnProcess):
+    """A spawned worker that ignores Ctrl-C from its first instruction: the parent ignores SIGINT
+    for the moment it starts the new interpreter, which keeps an ignored signal ignored (Python
+    installs its KeyboardInterrupt handler only over the default one). A worker still importing
+    when Ctrl-C comes would otherwise print a traceback of its own."""
+
+    def start(self) -> None:
+        if threading.current_thread() is not threading.main_thread():  # only it may set handlers
+            super().start()
+            return
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+        try:
+            super().start()
+        finally:
+            signal.signal(signal.SIGINT, previous)
+
+
+class _WorkerContext(multiprocessing.context.SpawnContext):
+    Process = _WorkerProcess
+
+
 def _start_worker(initializer: Callable | None, initargs: tuple) -> None:
-    """Runs first in every worker: Ctrl-C is the parent's to handle, one torch thread (where a module
-    the worker unpickled has loaded torch already; the variables cover a later import), then the
-    caller's ``initializer``."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    """Runs first in every worker: one torch thread (where a module the worker unpickled has loaded
+    torch already; the variables cover a later import), then the caller's ``initializer``."""
     torch = sys.modules.get("torch")
     if torch is not None:
         torch.set_num_threads(1)
@@ -83,7 +102,7 @@ def process_pool(workers: int, initializer: Callable | None = None, initargs: tu
         raise ValueError(f"a process pool needs at least 1 worker, got {workers}")
     with _one_thread_environment():
         # Workers start as work is submitted, so the variables stay set while the pool lives.
-        pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context(START_METHOD),
+        pool = ProcessPoolExecutor(max_workers=workers, mp_context=_WorkerContext(),
                                    initializer=_start_worker, initargs=(initializer, initargs))
         try:
             yield pool
@@ -104,4 +123,4 @@ def optional_pool(workers: int, initializer: Callable | None = None,
         yield pool
 
 
-__all__ = ["START_METHOD", "THREAD_VARIABLES", "optional_pool", "process_pool", "stop_workers"]
+__all__ = ["THREAD_VARIABLES", "optional_pool", "process_pool", "stop_workers"]
