@@ -28,8 +28,9 @@ def _cruise_alpha_deg(polar_cl: np.ndarray, alpha_deg: np.ndarray, cl_required: 
     return float(np.interp(cl_required, polar_cl[linear], alpha_deg[linear]))
 
 
-def compute_aero_data(geometry: AircraftGeometry | None = None) -> dict:
-    """All tables the XML writer needs, computed from ``geometry``, with the checks the build prints."""
+def compute_aero_data(geometry: AircraftGeometry | None = None, log=None) -> dict:
+    """All tables the XML writer needs, computed from ``geometry``, with the checks the build prints
+    (``log`` hears of a refined lattice); ``analysis.MeshNotConverged`` where no lattice converges."""
     geometry = geometry or AircraftGeometry()
     from . import analysis as an
     from .propeller import propeller_coefficients
@@ -53,7 +54,8 @@ def compute_aero_data(geometry: AircraftGeometry | None = None) -> dict:
 
     polar = an.longitudinal_polar(geometry, cg_x_m)
     slopes = an.lift_slopes(geometry)
-    incidence_deg = an.lattice_wing_incidence_deg(geometry, cg_x_m, alpha_cruise, cl_cruise)
+    # The lattice's mesh: refined until its derivatives converge at the cruise angle of attack.
+    mesh, incidence_deg, convergence = an.converged_mesh(geometry, cg_x_m, alpha_cruise, cl_cruise, log)
     data = {
         "meta": {
             "generator": "aircraft.design.aero_data.compute_aero_data",
@@ -78,8 +80,8 @@ def compute_aero_data(geometry: AircraftGeometry | None = None) -> dict:
         },
         "polar": polar,
         "sideslip": an.sideslip_increments(geometry, cg_x_m, alpha_cruise),
-        "vlm": an.vlm_derivatives(geometry, cg_x_m, incidence_deg),
-        "vlm_setup": {"spanwise_panels_per_segment": an.VLM_MESH.spanwise, "chordwise_panels": an.VLM_MESH.chordwise,
+        "vlm": an.vlm_derivatives(geometry, cg_x_m, incidence_deg, mesh),
+        "vlm_setup": {"spanwise_panels_per_segment": mesh.spanwise, "chordwise_panels": mesh.chordwise,
                       "wing_incidence_deg": incidence_deg},
         "profile": {"Cnr": an.profile_yaw_damping(geometry, cl_cruise)},
         "downwash_lag": an.downwash_lag_derivatives(geometry, cg_x_m, slopes),
@@ -88,9 +90,10 @@ def compute_aero_data(geometry: AircraftGeometry | None = None) -> dict:
         # Checks the build prints: the lattice's convergence at the cruise angle of attack, and the
         # lattice's own value of the lifting-line factor of the ailerons' induced yaw.
         "checks": {
-            "mesh_convergence": an.mesh_convergence(geometry, cg_x_m, incidence_deg, alpha_cruise),
+            "mesh_convergence": convergence,
             "aileron_induced_yaw": {"lifting_line_factor": an.AILERON_INDUCED_YAW_FACTOR,
-                                    **an.aileron_induced_yaw_factor(geometry, cg_x_m, incidence_deg, alpha_cruise)},
+                                    **an.aileron_induced_yaw_factor(geometry, cg_x_m, incidence_deg, alpha_cruise,
+                                                                    mesh=mesh)},
         },
     }
     prop = propeller_coefficients(geometry.propeller)

@@ -11,7 +11,7 @@ Methods, one per kind of number:
 * Lateral/directional and rate derivatives (CYβ, Clβ, Cnβ, CYp, Clp, Cnp, CLq, Cmq, CYq, Cnq, CYr,
   Clr, Cnr) against angle of attack: AeroSandbox's vortex-lattice method (inviscid, tail downwash
   included), in its linear range; the tables hold their end values beyond it. The rates turn the
-  aircraft about its CG, the mesh comes from a convergence study (``mesh_convergence``), and Cnr
+  aircraft about its CG, the mesh comes from a convergence study (``converged_mesh``), and Cnr
   gains the wing's profile-drag part, which an inviscid lattice cannot see.
 * Downwash lag (CLα̇, Cmα̇): the tail-volume estimate with the polar's downwash model.
 * Sideslip increments of lift, drag and pitching moment (even in β): ``AeroBuildup`` in sideslip.
@@ -255,10 +255,17 @@ class LatticeMesh:
         return LatticeMesh(2 * self.spanwise, 2 * self.chordwise)
 
 
-# Chosen by the convergence study in ``mesh_convergence`` (the build prints it): every derivative
-# at this mesh is within CONVERGENCE_TOLERANCE of its value on the mesh of twice the resolution.
+# The first mesh tried (``converged_mesh``): on the paper's aircraft and the small example every
+# derivative here is within the tolerances below of its value on the mesh of twice the resolution.
 VLM_MESH = LatticeMesh(spanwise=8, chordwise=6)
-CONVERGENCE_TOLERANCE = 0.03
+# Each mesh tried in turn, each against its double, until one passes (the second's check, against
+# 24 x 18 panels, takes about two minutes on one core; 32 x 24 would take eight).
+MESH_REFINEMENTS = (VLM_MESH, LatticeMesh(spanwise=12, chordwise=9))
+CONVERGENCE_TOLERANCE = 0.03  # each derivative's relative change on the doubled mesh
+# Cma is judged by the neutral point it places, |dCma / CLa| as a fraction of the mean chord: it is
+# a small difference of the wing's and the tail's large moments, so its relative change says little
+# (9 % on the small example moves its neutral point by 0.3 % of the chord).
+NEUTRAL_POINT_TOLERANCE_MAC = 0.005
 
 
 def _vortex_lattice(plane, op_point, mesh: LatticeMesh):
@@ -317,6 +324,55 @@ def mesh_convergence(geometry: AircraftGeometry, cg_x_m: float, incidence_deg: f
     return {k: {"mesh": coarse[k], "doubled": fine[k],
                 "relative_change": abs(coarse[k] - fine[k]) / max(abs(fine[k]), 1e-12)}
             for k in VLM_DERIVATIVES + ("CL", "CLa", "Cma") if k not in SYMMETRY_ZERO}
+
+
+def neutral_point_shift_mac(table: dict[str, dict[str, float]]) -> float:
+    """How far the neutral point moves between ``mesh_convergence``'s two meshes, as a fraction of
+    the mean chord: |ΔCma / CLa|."""
+    return abs(table["Cma"]["mesh"] - table["Cma"]["doubled"]) / abs(table["CLa"]["doubled"])
+
+
+def convergence_failures(table: dict[str, dict[str, float]]) -> list[str]:
+    """What ``mesh_convergence``'s ``table`` shows unconverged, one text each ("Cmq changes 4.10 %
+    (limit 3 %)"); empty where every derivative passes (Cma by its neutral-point shift)."""
+    out = []
+    for name, row in table.items():
+        if name == "Cma":
+            shift = neutral_point_shift_mac(table)
+            if shift > NEUTRAL_POINT_TOLERANCE_MAC:
+                out.append(f"Cma moves the neutral point {100 * shift:.2f} % of the mean chord "
+                           f"(limit {100 * NEUTRAL_POINT_TOLERANCE_MAC:g} %)")
+        elif row["relative_change"] > CONVERGENCE_TOLERANCE:
+            out.append(f"{name} changes {100 * row['relative_change']:.2f} % (limit {100 * CONVERGENCE_TOLERANCE:g} %)")
+    return out
+
+
+class MeshNotConverged(ValueError):
+    """No lattice mesh the build tries passes its convergence check; the message says which
+    derivatives did not converge and what to change."""
+
+
+def converged_mesh(geometry: AircraftGeometry, cg_x_m: float, alpha_deg: float, lift_coefficient: float,
+                   log=None) -> tuple[LatticeMesh, float, dict[str, dict[str, float]]]:
+    """The first mesh of ``MESH_REFINEMENTS`` whose derivatives at ``alpha_deg`` pass the check
+    against twice its resolution (``convergence_failures``), with the flat wing's incidence on it
+    (``lattice_wing_incidence_deg``) and its convergence table; ``MeshNotConverged`` where none
+    does. ``log`` hears of each refinement."""
+    for mesh in MESH_REFINEMENTS:
+        incidence_deg = lattice_wing_incidence_deg(geometry, cg_x_m, alpha_deg, lift_coefficient, mesh)
+        table = mesh_convergence(geometry, cg_x_m, incidence_deg, alpha_deg, mesh)
+        failures = convergence_failures(table)
+        if not failures:
+            return mesh, incidence_deg, table
+        if log is not None:
+            log(f"vortex lattice at {mesh.spanwise} x {mesh.chordwise} panels not converged ({'; '.join(failures)}): "
+                "refining")
+    raise MeshNotConverged(
+        f"the vortex lattice did not converge at {mesh.spanwise} x {mesh.chordwise} panels against "
+        f"{2 * mesh.spanwise} x {2 * mesh.chordwise}: {'; '.join(failures)}. Its usual causes: a tail far smaller "
+        "than the wing or lying in the plane of the wing's wake (give it some height above the wing, the z of "
+        "horizontal_tail.root_le_m), or a wing segment much narrower than the others (wing.kink_y_m near the "
+        "root or the tip)")
 
 
 def lattice_wing_incidence_deg(geometry: AircraftGeometry, cg_x_m: float, alpha_deg: float,

@@ -71,7 +71,10 @@ def build(description: Path, out: Path | None = None, from_data: bool = False, l
             raise BuildError(f"{err}; build without --from-data first") from err
     else:
         start = time.perf_counter()
-        data = aero_data.compute_aero_data(geometry)
+        try:
+            data = aero_data.compute_aero_data(geometry, log)
+        except analysis.MeshNotConverged as err:
+            raise BuildError(f"{description}: {err}") from None
         data_path.parent.mkdir(parents=True, exist_ok=True)
         aero_data.save(data, data_path)
         log(f"aerodynamic data computed in {time.perf_counter() - start:.1f} s -> {data_path}")
@@ -96,11 +99,17 @@ def checks_report(data: dict) -> str:
     lines = [(f"vortex lattice: {mesh} panels (spanwise per segment x chordwise), flat wing at "
              f"{setup['wing_incidence_deg']:.2f} deg incidence; convergence at the cruise angle of attack:"),
              f"  {'derivative':>10} {'mesh':>10} {'doubled':>10} {'change':>8}"]
-    worst = 0.0
-    for name, row in checks["mesh_convergence"].items():
-        worst = max(worst, row["relative_change"])
-        lines.append(f"  {name:>10} {row['mesh']:>10.5g} {row['doubled']:>10.5g} {100 * row['relative_change']:>7.2f}%")
-    lines.append(f"  largest change {100 * worst:.2f} % (limit {100 * analysis.CONVERGENCE_TOLERANCE:.0f} %)")
+    table = checks["mesh_convergence"]
+    for name, row in table.items():
+        line = f"  {name:>10} {row['mesh']:>10.5g} {row['doubled']:>10.5g} {100 * row['relative_change']:>7.2f}%"
+        if name == "Cma":
+            line += f"  (the neutral point moves {100 * analysis.neutral_point_shift_mac(table):.2f} % of the mean chord)"
+        lines.append(line)
+    failures = analysis.convergence_failures(table)
+    limits = (f"each derivative within {100 * analysis.CONVERGENCE_TOLERANCE:g} % of its value on the doubled mesh, "
+              f"Cma's neutral point within {100 * analysis.NEUTRAL_POINT_TOLERANCE_MAC:g} % of the mean chord")
+    lines.append(f"  converged: {limits}" if not failures else f"  NOT converged ({'; '.join(failures)}); the check: "
+                 f"{limits}")
     yaw = checks["aileron_induced_yaw"]
     lines.append(f"aileron induced yaw: dCn_s = -k CL dCl_s/(pi AR), lifting line k = {yaw['lifting_line_factor']:g}, "
                  f"lattice k = {yaw['factor']:.2f} at CL {yaw['CL']:.2f}")
