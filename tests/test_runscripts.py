@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import aircraft
-from jsbsim_env.analysis.runscripts import RUNS, generated_files
+from jsbsim_env.analysis.runscripts import OUTPUT_RATE_HZ, RUNS, SPIN_UP_S, generated_files
 from jsbsim_env.sim.simulation import FT_TO_M, Simulation
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
@@ -51,6 +51,21 @@ def _read_csv(path: Path) -> dict[str, np.ndarray]:
     return {n: data[:, i] for i, n in enumerate(names)}
 
 
+def assert_starts_trimmed(out: dict[str, np.ndarray], trim, run) -> None:
+    """The run's log starts at the release, trimmed: for its first 10 s the rotors turn at the
+    trimmed speed, wings level, no sideslip, at the trimmed pitch and altitude (the log's first row,
+    JSBSim's record of the initial conditions before the held spin-up, aside)."""
+    t = out["Time"]
+    assert t[0] == 0.0 and t[1] == pytest.approx(SPIN_UP_S, abs=1.5 / OUTPUT_RATE_HZ)
+    first = (t >= SPIN_UP_S) & (t < SPIN_UP_S + 10.0)
+    rpm = out["propulsion/engine/propeller-rpm"][first]
+    assert np.all(np.abs(rpm - trim.rotor_rpm) < 0.005 * trim.rotor_rpm), (rpm.min(), rpm.max(), trim.rotor_rpm)
+    assert np.all(np.abs(out["attitude/phi-deg"][first]) < 0.05)
+    assert np.all(np.abs(out["aero/beta-deg"][first]) < 0.05)
+    assert np.all(np.abs(out["attitude/theta-deg"][first] - trim.pitch_deg) < 0.2)
+    assert np.all(np.abs(out["position/h-sl-meters"][first] - run.altitude_m) < 2.0)
+
+
 @pytest.mark.parametrize("run", RUNS, ids=lambda r: r.name)
 def test_runscript_flies_the_doublets_and_returns_to_trim(run, tmp_path):
     jsbsim_cli = Path(sys.executable).with_name("jsbsim")
@@ -60,12 +75,13 @@ def test_runscript_flies_the_doublets_and_returns_to_trim(run, tmp_path):
     assert done.returncode == 0, done.stderr[-2000:]
     out = _read_csv(tmp_path / f"{run.name}.csv")
     t = out["Time"]
-    assert t[-1] == pytest.approx(run.end_s)
+    assert t[-1] == pytest.approx(run.end_s, abs=1.0 / OUTPUT_RATE_HZ)
     trim = Simulation().trim(run.altitude_m, run.airspeed_eas_mps)
 
     def at(name, time_s):
         return out[name][np.searchsorted(t, time_s)]
 
+    assert_starts_trimmed(out, trim, run)
     # The doublets reached the surfaces.
     half = run.doublet_half_period_s
     elevator_kick = at("fcs/elevator-pos-deg", run.elevator_start_s + 0.5 * half) - trim.elevator_deg
