@@ -178,9 +178,9 @@ def main(argv=None) -> int:
               "selection": [{"controller": c, **s} for c, s in selection.rank(summary, *selection.sides(controllers))]}
     (args.out / "benchmark.json").write_text(json.dumps(json_ready({**record, "rows": rows}), indent=1))
     (args.out / "benchmark.md").write_text(render_markdown(summary, controllers, plan, args.episodes, command,
-                                                           args.method, args.split))
+                                                           args.method, args.split, args.aircraft))
     for family in families:
-        plot_family(rows, family, controllers, args.out / f"{family}.png")
+        plot_family(rows, family, controllers, args.out / f"{family}.png", args.aircraft)
     if args.json:
         print(json.dumps(json_ready(record), indent=1))
     else:

@@ -65,7 +65,8 @@ class _HelpWithSuite(argparse.Action):
     def __call__(self, parser, namespace, values, option_string=None):
         from training.evaluation.suite import DOUBLET_ALTITUDES_M, EVAL_EPISODE_SEED
 
-        parser.epilog = (f"Seeds: the doublets fly at {', '.join(f'{a:.0f}' for a in DOUBLET_ALTITUDES_M)} m "
+        parser.epilog = (f"Seeds: the doublets fly at {', '.join(f'{a:.0f}' for a in DOUBLET_ALTITUDES_M)} m on the "
+                         "paper's aircraft, at the same fractions of another's envelope with --aircraft "
                          f"(seeded by their altitude); episode k of --episodes has seed {EVAL_EPISODE_SEED} + k "
                          f"(the default {DEFAULT_EPISODES} episodes: seeds {EVAL_EPISODE_SEED} to "
                          f"{EVAL_EPISODE_SEED + DEFAULT_EPISODES - 1}), the same for every controller and run.")

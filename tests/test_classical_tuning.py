@@ -109,3 +109,20 @@ def test_tuned_controllers_need_their_gain_file(monkeypatch, tmp_path):
     assert exc.value.code == 2
     with pytest.raises(ValueError, match="shipped gain table"):
         classical_tuning.write_tuned_table({}, PID_GAINS_PATH)
+
+
+def test_the_tuning_says_how_much_of_its_budget_it_flies(monkeypatch):
+    class Stop(Exception):
+        pass
+
+    def no_flight(*args, **kwargs):
+        raise Stop
+
+    monkeypatch.setattr(classical_tuning, "reference_scores", no_flight)
+    said = []
+    popsize = classical_tuning.default_popsize(len(classical_tuning.PID_PARAMETERS))
+    with pytest.raises(Stop):
+        classical_tuning.tune("pid", budget=popsize + 5, quick=True, progress=said.append)
+    expected = (f"budget {popsize + 5}: 1 CMA-ES generation of {popsize} candidates, {popsize} in all (5 left "
+                "unspent: CMA-ES flies whole generations)")
+    assert said == [expected]

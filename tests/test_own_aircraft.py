@@ -183,11 +183,13 @@ def test_a_policy_is_refused_on_an_aircraft_it_was_not_trained_on_unless_asked(s
 
 
 def test_the_benchmark_and_the_tuning_fly_the_papers_conditions_in_its_envelope(small, load_script, tmp_path, capsys):
-    from training.evaluation.benchmark import BenchJob, family_conditions, jobs_for, run_benchmark_job
+    from training.evaluation.benchmark import BenchJob, family_conditions, family_what, jobs_for, run_benchmark_job
     from training.evaluation.heldout import heldout_flights
 
     assert [c["altitude_m"] for c in family_conditions("turbulence", small)] == [150.0, 1500.0, 3000.0]
     assert [c["altitude_m"] for c in family_conditions("turbulence")] == [1000.0, 10000.0, 20000.0]
+    assert family_what("robustness", small).startswith("the turbulence flight at 1.5 km with")  # not 10 km
+    assert family_what("table9").endswith("on a straight leg at 10 km")
     flights = heldout_flights(quick=True, aircraft=small)
     assert {name: f.altitude_m for name, f in flights.items()} == {
         "turbulent_5km": 750.0, "positive_3km": 450.0, "negative_3km": 450.0, "calm_15km": 2250.0}

@@ -103,10 +103,10 @@ FAMILIES: dict[str, Family] = {f.name: f for f in (
            STEP_METRICS),
     Family("calm", "steady-state error in calm air on a straight leg", "calm",
            tuple({"altitude_m": h} for h in (1000.0, 10000.0, 20000.0)), CALM_METRICS),
-    Family("table9", "the paper's Table 9 aircraft, calm air, on a straight leg at 10 km",
+    Family("table9", "the paper's Table 9 aircraft, calm air, on a straight leg at {route_altitude}",
            "leg", tuple({"parameters": p} for p in ("positive", "negative")),
            ROUTE_METRICS),
-    Family("robustness", "the turbulence flight at 10 km with one sweep axis at a stressed value",
+    Family("robustness", "the turbulence flight at {route_altitude} with one sweep axis at a stressed value",
            "leg", tuple({"axis": a, "value": v} for a, v in STRESSED.items()),
            ROUTE_METRICS),
     Family("corner", "the route's first corner (L1's roll demand to its limit and back), calm air, sensor noise",
@@ -123,6 +123,13 @@ def family_conditions(family: str, aircraft: Aircraft | str | None = None) -> tu
     found = load_aircraft(aircraft)
     return tuple({k: found.altitude_like_m(v) if k == "altitude_m" else v for k, v in c.items()}
                  for c in FAMILIES[family].conditions)
+
+
+def family_what(family: str, aircraft: Aircraft | str | None = None) -> str:
+    """What ``family`` flies, as ``aircraft`` (the paper's by default) flies it: the paper's 10 km
+    route altitude moved into its envelope."""
+    route_m = load_aircraft(aircraft).altitude_like_m(PAPER_ROUTE_ALTITUDE_M)
+    return FAMILIES[family].what.format(route_altitude=f"{route_m / 1000:g} km")
 
 
 def condition_label(condition: dict) -> str:
@@ -422,7 +429,7 @@ def _fmt(x: float) -> str:
 
 
 def render_markdown(summary: dict, controllers: list[str], plan: BenchmarkPlan, episodes: int, command: str,
-                    method: str, split: str = "test") -> str:
+                    method: str, split: str = "test", aircraft: Aircraft | str | None = None) -> str:
     seeds = SPLITS[split]
     what = "the frozen test set" if split == "test" else "the validation set (for choices; not the test set)"
     lines = ["# Benchmark" + ("" if split == "test" else " (validation seeds)"), "", f"`{command}`", "",
@@ -464,7 +471,7 @@ def render_markdown(summary: dict, controllers: list[str], plan: BenchmarkPlan, 
     for name, per_condition in summary.items():
         family = FAMILIES[name]
         metrics = list(family.metrics)
-        lines += [f"## {name}: {family.what}", "", f"Window: {window_text(family.window, plan)}.", ""]
+        lines += [f"## {name}: {family_what(name, aircraft)}", "", f"Window: {window_text(family.window, plan)}.", ""]
         head = ["condition", "metric", *controllers]
         lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
         for cond, entry in per_condition.items():
@@ -489,7 +496,8 @@ def render_markdown(summary: dict, controllers: list[str], plan: BenchmarkPlan, 
     return "\n".join(lines)
 
 
-def plot_family(rows: list[dict], name: str, controllers: list[str], path) -> None:
+def plot_family(rows: list[dict], name: str, controllers: list[str], path,
+                aircraft: Aircraft | str | None = None) -> None:
     """One figure per family: a panel per metric, each condition's controllers side by side, every
     realisation a dot and the mean a bar."""
     import matplotlib
@@ -516,7 +524,7 @@ def plot_family(rows: list[dict], name: str, controllers: list[str], path) -> No
         ax.set_title(metric, fontsize=9)
         ax.grid(alpha=0.3, axis="y")
     axes[0][0].legend(fontsize=8)
-    fig.suptitle(f"{name}: {family.what}", fontsize=10)
+    fig.suptitle(f"{name}: {family_what(name, aircraft)}", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)

@@ -336,6 +336,10 @@ def tune(controller: str, budget: int, seed: int = 0, workers: int = 1, quick: b
     n = len(problem.parameters)
     popsize = max(2, min(default_popsize(n), budget))
     generations = budget // popsize
+    unspent = budget - generations * popsize
+    say(f"budget {budget}: {generations} CMA-ES generation{'s' if generations != 1 else ''} of {popsize} candidates, "
+        f"{generations * popsize} in all" + (f" ({unspent} left unspent: CMA-ES flies whole generations)" if unspent
+                                             else ""))
     with optional_pool(workers) as pool:
         runner = _Runner(pool)
         reference = reference_scores(quick, aircraft)
