@@ -6,6 +6,7 @@ controllers and, refused, by a policy trained on the paper's aircraft."""
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -33,6 +34,12 @@ def test_the_small_example_builds_loads_in_jsbsim_and_trims_across_its_envelope(
     assert report.startswith("# small_solar_uav: build report") and "static margin 0.10 MAC" in report
     # The survey: a trim at the reference EAS at each altitude, and every mode named there.
     assert report.count("| 12.0 | 5.") == 3 and "short_period" in report and "dutch_roll" in report
+    # ... and across its EAS range: the static margin and the modes at all nine points, each flagged
+    # against the stated limits (its spiral diverges faster than MIL-F-8785C's 20 s at low speed).
+    assert "## Trims, static margin and modes across the envelope" in report
+    margins = [float(m) for m in re.findall(r"^\| \d+ \| 1[025]\.0 \| (\d+\.\d) % \|", report, re.MULTILINE)]
+    assert len(margins) == 9 and all(7.0 < m < 12.0 for m in margins)
+    assert "- 150 m, 10 m/s: spiral time to double" in report
     # The run-time trim table's whole grid: 22 altitudes by 10-15 m/s in 1 m/s steps.
     assert "## The trim table" in report and "132 of 132 points trimmed." in report
     folder = small / "aircraft" / "small_solar_uav"

@@ -192,3 +192,16 @@ def test_control_derivatives_have_the_sign_conventions_of_spec_section_1():
     assert b_lat[2, 0] == pytest.approx(moment / ixx, rel=0.05)
     # The aircraft is left trimmed.
     assert abs(sim["accelerations/qdot-rad_sec2"]) < 1e-3
+
+
+def test_a_survey_point_is_flagged_against_the_stated_limits():
+    from jsbsim_env.analysis.survey import flags
+
+    row = {"static_margin": 0.034, "modes": {"short_period": {"damping_ratio": 0.8}, "phugoid": {"damping_ratio": 0.1},
+                                             "roll": {"time_constant_s": 2.0}, "spiral": {"time_to_double_s": 4.2},
+                                             "dutch_roll": {"damping_ratio": 0.2, "natural_frequency_radps": 1.5}}}
+    assert flags(row) == ["static margin 3.4 % of the mean chord, below 5.0 % of the mean chord",
+                          "roll-mode time constant 2.00 s, above 1.40 s", "spiral time to double 4.2 s, below 20.0 s"]
+    stable_spiral = {**row, "static_margin": 0.1, "modes": {**row["modes"], "spiral": {"time_constant_s": 30.0},
+                                                            "roll": {"time_constant_s": 0.5}}}
+    assert flags(stable_spiral) == []
