@@ -187,3 +187,32 @@ def test_the_initial_conditions_shipped_with_a_model_lie_in_its_envelope():
     # The 1976 standard atmosphere's table (geometric altitude).
     for altitude_m, rho in ((0.0, 1.2250), (5000.0, 0.73643), (11000.0, 0.36480), (20000.0, 0.08891)):
         assert isa_density_kg_m3(altitude_m) == pytest.approx(rho, rel=2e-4)
+
+
+def test_the_tail_incidence_may_be_left_for_the_build_to_solve(tmp_path):
+    pytest.importorskip("aerosandbox")
+    from dataclasses import replace
+
+    import numpy as np
+
+    from aircraft.design.analysis import ALPHA_DEG
+
+    text = SMALL_AIRCRAFT.read_text().replace("incidence_deg = -2.0         # nose-up positive", 'incidence_deg = "trim"')
+    path = tmp_path / "trimmed_tail.toml"
+    path.write_text(text)
+    asked = load_description(path)
+    assert asked.solve_tail_incidence and not load_description(SMALL_AIRCRAFT).solve_tail_incidence
+    path.write_text(text.replace('"trim"', '"level"'))
+    with pytest.raises(DescriptionError, match=r"horizontal_tail.incidence_deg must be a number .* or 'trim'"):
+        load_description(path)
+    solved = aero_data.solve_tail_incidence(asked)
+    assert -6.0 < solved.horizontal_tail.incidence_deg < 2.0
+    # At the solved incidence the pitching moment at the cruise angle of attack, elevator at zero, is nil.
+    alpha_cruise, _, _, polar = aero_data._balance(solved)
+    j = solved.envelope.reynolds.index(solved.envelope.cruise_reynolds)
+    assert abs(np.interp(alpha_cruise, ALPHA_DEG, polar["Cm"][:, j])) < aero_data.TAIL_INCIDENCE_TOLERANCE_CM
+    # A build writes the model with the data set's incidence.
+    data = {"meta": {"geometry": {"horizontal_tail": {"incidence_deg": solved.horizontal_tail.incidence_deg}}}}
+    assert aero_data.solved_geometry(asked, data).horizontal_tail == solved.horizontal_tail
+    assert aero_data.solved_geometry(replace(asked, solve_tail_incidence=False), data) == replace(
+        asked, solve_tail_incidence=False)

@@ -9,7 +9,7 @@ numpy, reproduces the committed aircraft files exactly on any machine.
 from __future__ import annotations
 
 import json
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from importlib import metadata
 from pathlib import Path
 
@@ -28,31 +28,93 @@ def _cruise_alpha_deg(polar_cl: np.ndarray, alpha_deg: np.ndarray, cl_required: 
     return float(np.interp(cl_required, polar_cl[linear], alpha_deg[linear]))
 
 
-def compute_aero_data(geometry: AircraftGeometry | None = None, log=None) -> dict:
-    """All tables the XML writer needs, computed from ``geometry``, with the checks the build prints
-    (``log`` hears of a refined lattice); ``analysis.MeshNotConverged`` where no lattice converges."""
-    geometry = geometry or AircraftGeometry()
+def _cruise_cl(geometry: AircraftGeometry) -> float:
+    """The lift coefficient of level flight at the reference EAS."""
+    return geometry.mass_kg * G_MPS2 / (0.5 * RHO0_KG_M3 * geometry.envelope.reference_eas_mps**2
+                                        * geometry.reference_area_m2)
+
+
+def _balance(geometry: AircraftGeometry) -> tuple[float, float, float, dict]:
+    """The cruise angle of attack (deg), the neutral point and the CG x (m), and the polar about the
+    CG: the neutral point from the built-up polar about a reference point, then the CG at the
+    chosen static margin ahead of it."""
     from . import analysis as an
-    from .propeller import propeller_coefficients
 
     alpha = np.array(an.ALPHA_DEG, dtype=float)
-    envelope = geometry.envelope
-    j_cruise = envelope.reynolds.index(envelope.cruise_reynolds)
-    cl_cruise = geometry.mass_kg * G_MPS2 / (0.5 * RHO0_KG_M3 * envelope.reference_eas_mps**2
-                                             * geometry.reference_area_m2)
-
-    # Neutral point from the built-up polar about a reference point, then the CG at the chosen
-    # static margin ahead of it; every table after that is computed about the CG.
+    j_cruise = geometry.envelope.reynolds.index(geometry.envelope.cruise_reynolds)
     x_ref_m = geometry.wing.root_chord_m / 4.0
     polar_ref = an.longitudinal_polar(geometry, x_ref_m)
-    alpha_cruise = _cruise_alpha_deg(polar_ref["CL"][:, j_cruise], alpha, cl_cruise)
+    alpha_cruise = _cruise_alpha_deg(polar_ref["CL"][:, j_cruise], alpha, _cruise_cl(geometry))
     da = 1.0
     cl_a = np.interp([alpha_cruise - da, alpha_cruise + da], alpha, polar_ref["CL"][:, j_cruise])
     cm_a = np.interp([alpha_cruise - da, alpha_cruise + da], alpha, polar_ref["Cm"][:, j_cruise])
     x_np_m = x_ref_m - (cm_a[1] - cm_a[0]) / (cl_a[1] - cl_a[0]) * geometry.reference_chord_m
     cg_x_m = x_np_m - geometry.static_margin * geometry.reference_chord_m
+    return alpha_cruise, x_np_m, cg_x_m, an.longitudinal_polar(geometry, cg_x_m)
 
-    polar = an.longitudinal_polar(geometry, cg_x_m)
+
+TAIL_INCIDENCE_TOLERANCE_CM = 1e-4  # the solved incidence's pitching moment at cruise with the elevator at 0
+
+
+def solve_tail_incidence(geometry: AircraftGeometry, log=None) -> AircraftGeometry:
+    """``geometry`` with the horizontal tail's incidence at which the polar's pitching moment about
+    the CG is zero at the cruise angle of attack of the reference EAS with the elevator at zero
+    (secant steps from the description's first guess; the moment is close to linear in the
+    incidence); ``ValueError`` where no incidence within +-15 deg does it."""
+    from . import analysis as an
+
+    alpha = np.array(an.ALPHA_DEG, dtype=float)
+    j_cruise = geometry.envelope.reynolds.index(geometry.envelope.cruise_reynolds)
+
+    def cruise_cm(incidence_deg: float) -> float:
+        trial = replace(geometry, horizontal_tail=replace(geometry.horizontal_tail, incidence_deg=incidence_deg))
+        alpha_cruise, _, _, polar = _balance(trial)
+        return float(np.interp(alpha_cruise, alpha, polar["Cm"][:, j_cruise]))
+
+    x0 = geometry.horizontal_tail.incidence_deg
+    x1 = x0 - 1.0
+    f0, f1 = cruise_cm(x0), cruise_cm(x1)
+    for _ in range(8):
+        if abs(f1) < TAIL_INCIDENCE_TOLERANCE_CM or f1 == f0:
+            break
+        x0, x1, f0 = x1, x1 - f1 * (x1 - x0) / (f1 - f0), f1
+        if not -15.0 <= x1 <= 15.0:
+            break
+        f1 = cruise_cm(x1)
+    if abs(f1) >= TAIL_INCIDENCE_TOLERANCE_CM or not -15.0 <= x1 <= 15.0:
+        raise ValueError(f"horizontal_tail.incidence_deg = \"trim\": no incidence within +-15 deg trims "
+                         f"{geometry.name} at its reference EAS with the elevator at zero (the last tried, "
+                         f"{x1:.2f} deg, leaves a pitching moment of {f1:.2g}); give the incidence as a number, or "
+                         "move the tail or the static margin")
+    if log is not None:
+        log(f"horizontal tail incidence solved: {x1:.3f} deg trims at {geometry.envelope.reference_eas_mps:g} m/s "
+            "EAS with the elevator at zero")
+    return replace(geometry, horizontal_tail=replace(geometry.horizontal_tail, incidence_deg=float(x1)))
+
+
+def solved_geometry(geometry: AircraftGeometry, data: dict) -> AircraftGeometry:
+    """``geometry`` with the horizontal tail's incidence that ``data`` (a data set built from it)
+    was computed with: the solved one where the description asked for it, else its own."""
+    if not geometry.solve_tail_incidence:
+        return geometry
+    incidence_deg = float(data["meta"]["geometry"]["horizontal_tail"]["incidence_deg"])
+    return replace(geometry, horizontal_tail=replace(geometry.horizontal_tail, incidence_deg=incidence_deg))
+
+
+def compute_aero_data(geometry: AircraftGeometry | None = None, log=None) -> dict:
+    """All tables the XML writer needs, computed from ``geometry``, with the checks the build prints
+    (``log`` hears of a refined lattice and a solved tail incidence); ``analysis.MeshNotConverged``
+    where no lattice converges, ``ValueError`` where no tail incidence trims."""
+    geometry = geometry or AircraftGeometry()
+    from . import analysis as an
+    from .propeller import propeller_coefficients
+
+    if geometry.solve_tail_incidence:
+        geometry = solve_tail_incidence(geometry, log)
+    envelope = geometry.envelope
+    cl_cruise = _cruise_cl(geometry)
+    # Every table after the balance is computed about the CG.
+    alpha_cruise, x_np_m, cg_x_m, polar = _balance(geometry)
     slopes = an.lift_slopes(geometry)
     # The lattice's mesh: refined until its derivatives converge at the cruise angle of attack.
     mesh, incidence_deg, convergence = an.converged_mesh(geometry, cg_x_m, alpha_cruise, cl_cruise, log)

@@ -73,11 +73,12 @@ def build(description: Path, out: Path | None = None, from_data: bool = False, l
         start = time.perf_counter()
         try:
             data = aero_data.compute_aero_data(geometry, log)
-        except analysis.MeshNotConverged as err:
+        except ValueError as err:  # a lattice that does not converge, a tail incidence that does not trim
             raise BuildError(f"{description}: {err}") from None
         data_path.parent.mkdir(parents=True, exist_ok=True)
         aero_data.save(data, data_path)
         log(f"aerodynamic data computed in {time.perf_counter() - start:.1f} s -> {data_path}")
+    geometry = aero_data.solved_geometry(geometry, data)  # a tail incidence the build solved, as solved
     files = xml_writer.aircraft_files(geometry, data)
     xml_writer.write(files, folder)
     log(f"wrote {len(files)} files under {folder}")

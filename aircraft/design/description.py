@@ -13,7 +13,7 @@ naming the file and the key (``wing.span_m``), never a model built from it.
 | ``[randomisation]`` | ``Randomisation``: where training episodes start (altitude and EAS ranges) |
 | ``[wing]`` | ``WingGeometry``: airfoil, span, area, planform break, root chord, dihedral, twist, incidence |
 | ``[aileron]`` | ``ControlSurfaceSpan``: spanwise extent, chord fraction |
-| ``[horizontal_tail]``, ``[vertical_tail]`` | ``TailSurface``: section, leading edges, chords, incidence, control chord, efficiency |
+| ``[horizontal_tail]``, ``[vertical_tail]`` | ``TailSurface``: section, leading edges, chords, incidence (the horizontal tail's may be ``"trim"``: the build solves the incidence that trims at the reference EAS with the elevator at zero), control chord, efficiency |
 | ``[fuselage]`` | ``fuselage_stations_m``: (x, radius) stations |
 | ``[reference]`` | reference area, span and chord of the coefficients |
 | ``[mass]`` | mass, inertia (Ixx, Iyy, Izz, Ixz), static margin, CG height |
@@ -72,6 +72,9 @@ _NESTED = {"envelope": FlightEnvelope, "randomisation": Randomisation, "wing": W
            "vertical_tail": TailSurface, "propeller": PropellerGeometry}
 _LISTS = {"rotors": Rotor, "contacts": ContactPoint}  # arrays of tables
 _TOP = ("name", "description")  # the keys before the first section
+# horizontal_tail.incidence_deg's other value: the incidence that trims at the reference EAS with the
+# elevator at zero, solved by the build.
+TRIM_INCIDENCE = "trim"
 PAPER_AIRCRAFT = Path(__file__).resolve().parent.parent / "solar_uav.toml"  # the paper's aircraft, described
 
 
@@ -155,8 +158,16 @@ def geometry_from_dict(data: dict) -> AircraftGeometry:
     for section, names in SECTIONS.items():
         if section not in data:
             raise KeyError(f"[{section}] is missing")
+        table = data[section]
+        if section == "horizontal_tail" and isinstance(table, dict) and isinstance(table.get("incidence_deg"), str):
+            if table["incidence_deg"] != TRIM_INCIDENCE:
+                raise ValueError(f"horizontal_tail.incidence_deg must be a number (deg, nose-up positive) or "
+                                 f"{TRIM_INCIDENCE!r} (the build solves the incidence that trims at the reference "
+                                 f"EAS with the elevator at zero), got {table['incidence_deg']!r}")
+            table = {**table, "incidence_deg": 0.0}  # the solve's first guess
+            flat["solve_tail_incidence"] = True
         if section in _NESTED:
-            flat[section] = _NESTED[section](**_table(data[section], _NESTED[section], section))
+            flat[section] = _NESTED[section](**_table(table, _NESTED[section], section))
         elif section in _LISTS:
             flat[section] = _tables(data[section], _LISTS[section], section)
         else:
@@ -283,4 +294,4 @@ def load_description(path: Path | str) -> AircraftGeometry:
         raise DescriptionError(f"{path}: {message}") from err
 
 
-__all__ = ["PAPER_AIRCRAFT", "SECTIONS", "DescriptionError", "check", "geometry_from_dict", "load_description"]
+__all__ = ["PAPER_AIRCRAFT", "SECTIONS", "TRIM_INCIDENCE", "DescriptionError", "check", "geometry_from_dict", "load_description"]

@@ -202,6 +202,11 @@ class AircraftGeometry:
         ContactPoint("RIGHT_TIP", "STRUCTURE", (0.8, 17.5, 0.77), 0.8, 60000.0, 6000.0),
     )
 
+    # The description asked for the horizontal tail's incidence that trims the aircraft at its
+    # reference EAS with the elevator at zero (``horizontal_tail.incidence_deg = "trim"``); the build
+    # solves it (``aero_data.solve_tail_incidence``) and its data set records the result.
+    solve_tail_incidence: bool = False
+
     @property
     def aspect_ratio(self) -> float:
         """b²/S (15.6 for the published numbers)."""
