@@ -46,7 +46,8 @@ def main(argv: list[str] | None = None) -> int:
         from jsbsim_env.analysis.survey import envelope_survey, render_survey, render_trim_grid, trim_grid
 
         rows = envelope_survey(built.folder)
-        lines += ["", "## Trims, static margin and modes across the envelope", "", *render_survey(rows)]
+        lines += ["", "## Trims, static margin and modes across the envelope", "",
+                  *render_survey(rows, built.geometry.motor_efficiency)]
         lines += ["", "## The trim table", "", ("Every point of the grid the episodes start from "
                   "(jsbsim_env.sim.trim_table): angle of attack / elevator (deg) / throttle."), "",
                   *render_trim_grid(*trim_grid(built.folder))]

@@ -16,6 +16,7 @@ Shared fixtures:
 | ``tiny_config`` | ``tiny_config(total_frames=192, seed=3)``: a ``TrainConfig`` that trains in seconds |
 | ``tiny_args`` | ``tiny_args(total_frames=96, seed=3)``: the same settings as command-line options of ``scripts/train_torchrl.py`` |
 | ``load_script`` | ``load_script("evaluate")``: a script under ``scripts/`` imported as a module, to call its functions |
+| ``small_aircraft`` | the JSBSim root the small example aircraft is built into, once a session |
 | ``untrained_trainer`` | ``untrained_trainer(run_dir, seed=1, task=None)``: a ``Trainer`` with freshly initialised networks of the default size |
 | ``untrained_policy`` | ``untrained_policy(path, seed=1, task=None)``: the policy file such a trainer writes |
 | ``untrained_run`` | ``untrained_run(root, name, seed)``: a run folder with such a policy (the paper's task: no trims) and a progress log |
@@ -134,6 +135,17 @@ def tiny_config():
 @pytest.fixture(scope="session")
 def tiny_args():
     return make_tiny_args
+
+
+@pytest.fixture(scope="session")
+def small_aircraft(tmp_path_factory):
+    """The JSBSim root the small example (``aircraft/small_solar_uav.toml``) is built into, once
+    for the session (about 45 s: analysis, JSBSim files, classical controllers, survey)."""
+    pytest.importorskip("aerosandbox")
+    root = tmp_path_factory.mktemp("small")
+    assert import_script("build_aircraft").main([str(ROOT / "aircraft" / "small_solar_uav.toml"), "--out",
+                                                 str(root)]) == 0
+    return root
 
 
 @pytest.fixture(scope="session")

@@ -19,12 +19,9 @@ SMALL_AIRCRAFT = PAPER_AIRCRAFT.with_name("small_solar_uav.toml")
 
 
 @pytest.fixture(scope="module")
-def small(tmp_path_factory, load_script):
-    """The JSBSim root the small example is built into, and what the build printed."""
-    pytest.importorskip("aerosandbox")
-    root = tmp_path_factory.mktemp("small")
-    assert load_script("build_aircraft").main([str(SMALL_AIRCRAFT), "--out", str(root)]) == 0
-    return root
+def small(small_aircraft):
+    """The JSBSim root the small example is built into (conftest's ``small_aircraft``)."""
+    return small_aircraft
 
 
 def test_the_small_example_builds_loads_in_jsbsim_and_trims_across_its_envelope(small):

@@ -185,7 +185,7 @@ class AircraftGeometry:
     esc_time_constant_s: float = 0.03  # closed speed loop of the motor controller
     rotor_time_constant_s: float = 0.2  # the paper's Section 2.3 (throttle lag)
     rotor_rate_limit_rpm_per_s: float = 480.0  # the paper's Section 2.3
-    motor_efficiency: float = 0.85  # shaft power over electric power, for the power read-out only
+    motor_efficiency: float = 0.85  # shaft power over electric power: the build report's electric power
     surface_time_constant_s: float = 0.02  # the paper's Section 2.3
     surface_rate_limit_deg_per_s: float = 100.0  # the paper's Section 2.3
     aileron_limit_deg: float = 30.0  # the paper's Section 2.3

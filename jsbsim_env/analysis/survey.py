@@ -25,6 +25,8 @@ from jsbsim_env.analysis.modes import LinearisationError, linear_modes
 from jsbsim_env.sim.simulation import Simulation, TrimError
 from jsbsim_env.sim.trim_table import grid
 
+FTLBF_PER_S_TO_W = 1.35582  # JSBSim's propeller power is in ft lbf / s
+
 # What a survey point is flagged against: a static margin of at least 5 % of the mean chord (below
 # it the aircraft is close to neutral, and the margin moves with the CG and the model's error), and
 # the flying qualities of MIL-F-8785C, Level 1, Class I (small aircraft), flight phase Category B
@@ -80,6 +82,8 @@ def envelope_survey(aircraft: Aircraft | Path | str) -> list[dict]:
         try:
             trim = sim.trim(altitude_m, eas_mps, check_envelope=False)
             row.update(trim.as_dict())
+            row["shaft_power_w"] = FTLBF_PER_S_TO_W * sum(sim[f"propulsion/engine[{i}]/propeller-power-ftlbps"]
+                                                          for i in range(sim.engine_count))
             measured = derivatives.measure(sim, altitude_m, eas_mps)
             row["static_margin"] = -measured["Cma"] / measured["CLa"]
             row["modes"] = linear_modes(sim, sim.trim(altitude_m, eas_mps, check_envelope=False))
@@ -130,16 +134,20 @@ def _mode_text(mode: dict) -> str:
     return "neutral"
 
 
-def render_survey(rows: list[dict]) -> list[str]:
-    """Markdown lines: the trim table, then the modes at the reference EAS."""
-    lines = ["| altitude, m | EAS, m/s | α, deg | elevator, deg | throttle | rotor, rpm | thrust, N |",
-             "|---:|---:|---:|---:|---:|---:|---:|"]
+def render_survey(rows: list[dict], motor_efficiency: float | None = None) -> list[str]:
+    """Markdown lines: the trim table (with the electric power of all motors at ``motor_efficiency``,
+    shaft power over electric, where given), then the margins and modes, then the flags."""
+    power = f" electric power at {motor_efficiency:g} motor efficiency, W |" if motor_efficiency else ""
+    lines = ["| altitude, m | EAS, m/s | α, deg | elevator, deg | throttle | rotor, rpm | thrust, N | shaft power, W |"
+             + power, "|---:|---:|---:|---:|---:|---:|---:|---:|" + ("---:|" if power else "")]
     for r in rows:
         if "error" in r:
-            lines.append(f"| {r['altitude_m']:.0f} | {r['airspeed_eas_mps']:.1f} | no trim: {r['error']} | | | | |")
+            lines.append(f"| {r['altitude_m']:.0f} | {r['airspeed_eas_mps']:.1f} | no trim: {r['error']} | | | | | |"
+                         + (" |" if power else ""))
         else:
             lines.append(f"| {r['altitude_m']:.0f} | {r['airspeed_eas_mps']:.1f} | {r['alpha_deg']:.2f} | "
-                         f"{r['elevator_deg']:.2f} | {r['throttle']:.3f} | {r['rotor_rpm']:.0f} | {r['thrust_n']:.2f} |")
+                         f"{r['elevator_deg']:.2f} | {r['throttle']:.3f} | {r['rotor_rpm']:.0f} | {r['thrust_n']:.2f} | "
+                         f"{r['shaft_power_w']:.1f} |" + (f" {r['shaft_power_w'] / motor_efficiency:.1f} |" if power else ""))
     moded = [r for r in rows if "modes" in r]
     if moded:
         names = list(moded[0]["modes"])
