@@ -16,7 +16,7 @@ Shared fixtures:
 | ``tiny_config`` | ``tiny_config(total_frames=192, seed=3)``: a ``TrainConfig`` that trains in seconds |
 | ``tiny_args`` | ``tiny_args(total_frames=96, seed=3)``: the same settings as command-line options of ``scripts/train_torchrl.py`` |
 | ``load_script`` | ``load_script("evaluate")``: a script under ``scripts/`` imported as a module, to call its functions |
-| ``small_aircraft`` | the JSBSim root the small example aircraft is built into, once a session |
+| ``small_aircraft``, ``survey_aircraft`` | the JSBSim root an example aircraft is built into, once a session |
 | ``untrained_trainer`` | ``untrained_trainer(run_dir, seed=1, task=None)``: a ``Trainer`` with freshly initialised networks of the default size |
 | ``untrained_policy`` | ``untrained_policy(path, seed=1, task=None)``: the policy file such a trainer writes |
 | ``untrained_run`` | ``untrained_run(root, name, seed)``: a run folder with such a policy (the paper's task: no trims) and a progress log |
@@ -137,15 +137,25 @@ def tiny_args():
     return make_tiny_args
 
 
+def _built(tmp_path_factory, description: str) -> Path:
+    pytest.importorskip("aerosandbox")
+    root = tmp_path_factory.mktemp(description.removesuffix(".toml"))
+    assert import_script("build_aircraft").main([str(ROOT / "aircraft" / description), "--out", str(root)]) == 0
+    return root
+
+
 @pytest.fixture(scope="session")
 def small_aircraft(tmp_path_factory):
     """The JSBSim root the small example (``aircraft/small_solar_uav.toml``) is built into, once
     for the session (about 45 s: analysis, JSBSim files, classical controllers, survey)."""
-    pytest.importorskip("aerosandbox")
-    root = tmp_path_factory.mktemp("small")
-    assert import_script("build_aircraft").main([str(ROOT / "aircraft" / "small_solar_uav.toml"), "--out",
-                                                 str(root)]) == 0
-    return root
+    return _built(tmp_path_factory, "small_solar_uav.toml")
+
+
+@pytest.fixture(scope="session")
+def survey_aircraft(tmp_path_factory):
+    """The JSBSim root the survey UAV example (``aircraft/survey_uav.toml``: one propeller, a solved
+    tail incidence) is built into, once for the session (about 60 s)."""
+    return _built(tmp_path_factory, "survey_uav.toml")
 
 
 @pytest.fixture(scope="session")

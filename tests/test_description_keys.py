@@ -1,5 +1,5 @@
-"""Every key of an aircraft description reaches where it acts, walked on the small example built
-from its file: the flown model (the JSBSim files, read back through JSBSim where a flight could set
+"""Every key of an aircraft description reaches where it acts, walked on each example aircraft
+built from its file (the small solar UAV and the survey UAV): the flown model (the JSBSim files, read back through JSBSim where a flight could set
 them otherwise), the record the run-time code reads (``envelope.json``, ``aircraft.Aircraft``), or
 the analysis that computes the aerodynamic data set (which records the geometry it used).
 
@@ -138,6 +138,10 @@ WHERE = {
     "propulsion.rotor_rate_limit_rpm_per_s": lambda b, v: _same(b.core.sim["fcs/rotor-rate-limit-rpm_s"], v),
     # The electric power the build's survey reports: the shaft power over this efficiency.
     "propulsion.motor_efficiency": lambda b, v: f"electric power at {v:g} motor efficiency" in b.report,
+    # A number the analysis uses as given; "trim": the incidence the build solved, which the analysis used.
+    "horizontal_tail.incidence_deg": lambda b, v: (b.data["meta"]["geometry"]["solve_tail_incidence"]
+                                                   and isinstance(b.analysed("horizontal_tail.incidence_deg"), float))
+    if v == "trim" else _same(b.analysed("horizontal_tail.incidence_deg"), v),
     "actuators.surface_time_constant_s": lambda b, v: _same(_surface_lag_per_s(b), 1.0 / v),
     # What every flight flies with, as the flight core leaves it after starting an episode.
     "actuators.surface_rate_limit_deg_per_s": lambda b, v: _same(b.core.sim["fcs/surface-rate-limit-deg_s"], v),
@@ -161,24 +165,30 @@ WHERE = {
 ANALYSED = ("wing.", "aileron.", "horizontal_tail.", "vertical_tail.", "fuselage.", "propeller.")
 
 
-@pytest.fixture(scope="module")
-def built(small_aircraft):
+# The example descriptions, each with the session fixture that builds it (conftest.py).
+EXAMPLES = {"small_aircraft": SMALL_AIRCRAFT, "survey_aircraft": PAPER_AIRCRAFT.with_name("survey_uav.toml")}
+
+
+@pytest.fixture(scope="module", params=list(EXAMPLES))
+def built(request):
     from jsbsim_env.sim.core import CoreConfig, FlightCore
     from jsbsim_env.sim.simulation import Simulation
 
-    found = aircraft.load_aircraft(small_aircraft)
-    core = FlightCore(CoreConfig(aircraft=str(small_aircraft)))
+    root = request.getfixturevalue(request.param)
+    found = aircraft.load_aircraft(root)
+    core = FlightCore(CoreConfig(aircraft=str(root)))
     core.reset(0)
-    b = Built(found, json.loads((small_aircraft / "aero_data.json").read_text()), core)
+    b = Built(found, json.loads((root / "aero_data.json").read_text()), core)
     b.sim = Simulation(found)  # the nominal model, as built (the episode's core flies randomised coefficients)
     b.found_chord = float(b.number("Metrics.xml", "chord"))
-    b.report = (small_aircraft / "build_report.md").read_text()
-    b.described = _flat(tomllib.loads(SMALL_AIRCRAFT.read_text()))
+    b.report = (root / "build_report.md").read_text()
+    b.described = _flat(tomllib.loads(EXAMPLES[request.param].read_text()))
     return b
 
 
-def test_every_key_of_the_description_has_a_place_where_it_acts():
-    described = _flat(tomllib.loads(SMALL_AIRCRAFT.read_text()))
+@pytest.mark.parametrize("description", list(EXAMPLES.values()), ids=lambda p: p.stem)
+def test_every_key_of_the_description_has_a_place_where_it_acts(description):
+    described = _flat(tomllib.loads(description.read_text()))
     unplaced = [k for k in described if k not in WHERE and not k.startswith(ANALYSED)]
     assert not unplaced, f"description keys with no place where they act: {unplaced}"
     assert not set(WHERE) - set(described), "places for keys the description does not have"

@@ -263,22 +263,3 @@ def test_a_damaged_envelope_record_is_refused_naming_the_file(small, tmp_path):
         with pytest.raises(aircraft.AircraftError, match=r"envelope.json.*build the aircraft again"):
             aircraft.load_aircraft(folder)
 
-
-def test_its_standalone_runscripts_start_trimmed(small, tmp_path):
-    import subprocess
-    import sys
-    from pathlib import Path
-
-    from test_runscripts import _read_csv, assert_starts_trimmed
-
-    from jsbsim_env.analysis.runscripts import runs_for
-    from jsbsim_env.sim.simulation import Simulation
-
-    sim = Simulation(small)
-    run = runs_for(sim.aircraft)[0]
-    done = subprocess.run([str(Path(sys.executable).with_name("jsbsim")), "--root", str(small), "--outputpath",
-                           str(tmp_path), str(small / "scripts" / f"{run.name}.xml")],
-                          check=False, capture_output=True, text=True, timeout=300)
-    assert done.returncode == 0, done.stderr[-2000:]
-    assert_starts_trimmed(_read_csv(tmp_path / f"{run.name}.csv"), sim.trim(run.altitude_m, run.airspeed_eas_mps),
-                          run)

@@ -207,11 +207,18 @@ def full_power_speed_rpm(advance_ratio: np.ndarray, power_coeff: np.ndarray, dia
     """Rotor speed (rpm) at which the propeller absorbs ``power_w`` at ``airspeed_mps`` and ``density_kg_m3``.
 
     Solves CP(J) rho n^3 D^5 = P with J = V/(n D) on the tabulated power coefficient; the absorbed
-    power rises monotonically with n over the table's range.
+    power rises monotonically with n over the table's range. Infinite where the propeller cannot
+    absorb ``power_w`` below ``MAX_SOLVED_RPS`` (thin air: the caller caps the speed at the rotor's
+    limit).
     """
     def excess_w(n_rps: float) -> float:
         j = airspeed_mps / (n_rps * diameter_m)
         return float(np.interp(j, advance_ratio, power_coeff)) * density_kg_m3 * n_rps**3 * diameter_m**5 - power_w
 
     low_rps = max(airspeed_mps / (diameter_m * float(np.max(advance_ratio))), 0.1)
-    return 60.0 * brentq(excess_w, low_rps, 200.0)
+    if excess_w(MAX_SOLVED_RPS) < 0.0:
+        return math.inf
+    return 60.0 * brentq(excess_w, low_rps, MAX_SOLVED_RPS)
+
+
+MAX_SOLVED_RPS = 200.0  # 12,000 rpm: far above any rotor's limit here
