@@ -234,21 +234,24 @@ def test_the_suite_the_sweep_and_the_loop_bench_fly_it(small, load_script, tmp_p
     capsys.readouterr()
 
 
-def test_an_envelope_that_reaches_where_episodes_end_is_refused(small, tmp_path):
+def test_where_episodes_end_moves_with_the_envelope_and_an_envelope_reaching_it_is_refused(small, tmp_path):
     import shutil
 
     from jsbsim_env.sim.core import CoreConfig, Envelope, FlightCore
 
-    # The small aircraft as if its envelope went to 30 m/s, past the flight core's 25 m/s.
-    fast = tmp_path / "aircraft" / "small_solar_uav"
-    shutil.copytree(small / "aircraft" / "small_solar_uav", fast)
-    record = json.loads((fast / aircraft.ENVELOPE_FILE).read_text())
-    (fast / aircraft.ENVELOPE_FILE).write_text(json.dumps({**record, "eas_range_mps": [10.0, 30.0]}))
-    with pytest.raises(ValueError, match=r"small_solar_uav's envelope \(EAS 10-30 m/s, up to 3000 m\) reaches "
-                                         r"where an episode ends \(CoreConfig.envelope: EAS 4-25 m/s"):
+    # Its episodes end at half its lowest EAS and 25/12 of its highest, as the paper's end at 4 and 25.
+    assert CoreConfig(aircraft=str(small)).envelope.eas_range_mps == (5.0, 31.25)
+    assert CoreConfig().envelope.eas_range_mps == (4.0, 25.0)
+    # The small aircraft as if its envelope went up to 25 km, past the flight core's 22 km.
+    high = tmp_path / "aircraft" / "small_solar_uav"
+    shutil.copytree(small / "aircraft" / "small_solar_uav", high)
+    record = json.loads((high / aircraft.ENVELOPE_FILE).read_text())
+    (high / aircraft.ENVELOPE_FILE).write_text(json.dumps({**record, "altitude_range_m": [0.0, 25000.0]}))
+    with pytest.raises(ValueError, match=r"small_solar_uav's envelope \(EAS 10-15 m/s, up to 25000 m\) reaches "
+                                         r"where an episode ends \(CoreConfig.envelope: EAS 5-31.25 m/s, up to 22000 m"):
         FlightCore(CoreConfig(aircraft=str(tmp_path)))
     # An Envelope given on purpose is the user's: it flies, and ends where it says.
-    FlightCore(CoreConfig(aircraft=str(tmp_path), envelope=Envelope(eas_range_mps=(4.0, 40.0))))
+    FlightCore(CoreConfig(aircraft=str(tmp_path), envelope=Envelope(altitude_range_m=(50.0, 30000.0))))
 
 
 def test_a_damaged_envelope_record_is_refused_naming_the_file(small, tmp_path):

@@ -63,12 +63,29 @@ class Envelope:
     max_abs_roll_deg: float = 60.0
     max_abs_pitch_deg: float = 45.0
     alpha_range_deg: tuple[float, float] = (-20.0, 25.0)
-    eas_range_mps: tuple[float, float] = (4.0, 25.0)
+    # None: the flown aircraft's EAS range widened as the paper's is (``ends_for``): 8-12 m/s gives
+    # 4-25 m/s; a fixed range would end a faster aircraft's episodes inside its own envelope.
+    eas_range_mps: tuple[float, float] | None = None
     # Lower bound: height above the terrain (below it, a ground strike). The terrain lies
     # sim.TERRAIN_BELOW_FLOOR_M (100 m) below the envelope's floor (sea level for the paper's
     # aircraft), so an episode may start at the floor and ends 50 m below it. Upper bound: altitude
     # above sea level.
     altitude_range_m: tuple[float, float] = (50.0, 22000.0)
+
+
+# Where the paper's aircraft's episodes end (4 and 25 m/s EAS) against its EAS range (8-12 m/s).
+PAPER_EAS_ENDS_MPS, PAPER_EAS_RANGE_MPS = (4.0, 25.0), (8.0, 12.0)
+
+
+def ends_for(envelope: Envelope, aircraft) -> Envelope:
+    """``envelope`` with its EAS range the aircraft's (an ``aircraft.Aircraft``) where it gives none:
+    its lowest and highest EAS scaled as the paper's aircraft's are (half its lowest, 25/12 of its
+    highest; exactly 4 and 25 m/s for the paper's)."""
+    if envelope.eas_range_mps is not None:
+        return envelope
+    low, high = aircraft.eas_range_mps
+    return replace(envelope, eas_range_mps=(low * PAPER_EAS_ENDS_MPS[0] / PAPER_EAS_RANGE_MPS[0],
+                                            high * PAPER_EAS_ENDS_MPS[1] / PAPER_EAS_RANGE_MPS[1]))
 
 
 @dataclass(frozen=True)
@@ -115,9 +132,10 @@ class CoreConfig:
         if isinstance(self.aircraft, Path):  # a path is kept as text: the configuration is written as JSON
             object.__setattr__(self, "aircraft", str(self.aircraft))
         try:
-            load_aircraft(self.aircraft)
+            flown = load_aircraft(self.aircraft)
         except AircraftError as err:
             raise ValueError(f"CoreConfig.aircraft: {err}") from None
+        object.__setattr__(self, "envelope", ends_for(self.envelope, flown))  # where its episodes end
         if not (self.noise_scale >= 0.0 and self.parameter_strength >= 0.0):
             raise ValueError(f"noise_scale and parameter_strength must be >= 0, got {self.noise_scale} and "
                              f"{self.parameter_strength}")
@@ -246,7 +264,7 @@ class FlightCore:
         # The default ends must lie outside the aircraft's envelope; an Envelope given is the user's
         # choice (the tests end episodes on purpose with one).
         ends = self.config.envelope
-        if ends == Envelope() and not (ends.eas_range_mps[0] < self.aircraft.eas_range_mps[0]
+        if ends == ends_for(Envelope(), self.aircraft) and not (ends.eas_range_mps[0] < self.aircraft.eas_range_mps[0]
                 and self.aircraft.eas_range_mps[1] < ends.eas_range_mps[1]
                 and self.aircraft.altitude_range_m[1] < ends.altitude_range_m[1]):
             raise ValueError(f"{self.aircraft.name}'s envelope (EAS {self.aircraft.eas_range_mps[0]:g}-"
