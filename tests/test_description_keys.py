@@ -4,13 +4,13 @@ them otherwise), the record the run-time code reads (``envelope.json``, ``aircra
 the analysis that computes the aerodynamic data set (which records the geometry it used).
 
 A key a description holds that this walk has no place for fails it: a new key must be shown to
-act, or be refused by the description's check. (A flight core once set every servo to 100 deg/s
-whatever the description said.)"""
+act, or be refused by the description's check."""
 
 from __future__ import annotations
 
 import json
 import math
+import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 
@@ -43,7 +43,7 @@ def _flat(table: dict, prefix: str = "") -> dict:
 
 @dataclass
 class Built:
-    """The built small example, read back: its record, files, data set and a flight core that has
+    """A built example aircraft, read back: its record, files, data set and a flight core that has
     started an episode with every default."""
 
     found: aircraft.Aircraft
@@ -89,6 +89,13 @@ def _full_power_w(b: Built, eas_mps: float) -> float:
     trim = sim.trim(b.found.altitude_range_m[0], b.found.reference_eas_mps)
     sim.place_with_controls(b.found.altitude_range_m[0], eas_mps, trim.alpha_deg, 0.0, trim.elevator_deg, 0.0, 1.0)
     return sim["propulsion/engine[0]/propeller-power-ftlbps"] * 1.35582
+
+
+def _powers(report: str) -> list[tuple[float, float]]:
+    """The build report's survey rows' shaft and electric power (W), each printed to 0.1 W."""
+    rows = re.findall(r"^\|(?: [^|]+ \|){7} (\d+\.\d) \| (\d+\.\d) \|$", report, re.MULTILINE)
+    assert len(rows) == 9, rows  # three speeds at each of three altitudes
+    return [(float(shaft), float(electric)) for shaft, electric in rows]
 
 
 # Each key: where it acts, checked against the described value.
@@ -137,7 +144,8 @@ WHERE = {
     "propulsion.rotor_time_constant_s": lambda b, v: _same(b.core.sim["fcs/rotor-lag-per-s"], 1.0 / v),
     "propulsion.rotor_rate_limit_rpm_per_s": lambda b, v: _same(b.core.sim["fcs/rotor-rate-limit-rpm_s"], v),
     # The electric power the build's survey reports: the shaft power over this efficiency.
-    "propulsion.motor_efficiency": lambda b, v: f"electric power at {v:g} motor efficiency" in b.report,
+    "propulsion.motor_efficiency": lambda b, v: f"electric power at {v:g} motor efficiency" in b.report and _powers(
+        b.report) and all(abs(shaft / v - electric) < 0.12 for shaft, electric in _powers(b.report)),
     # A number the analysis uses as given; "trim": the incidence the build solved, which the analysis used.
     "horizontal_tail.incidence_deg": lambda b, v: (b.data["meta"]["geometry"]["solve_tail_incidence"]
                                                    and isinstance(b.analysed("horizontal_tail.incidence_deg"), float))

@@ -239,9 +239,13 @@ def test_where_episodes_end_moves_with_the_envelope_and_an_envelope_reaching_it_
 
     from jsbsim_env.sim.core import CoreConfig, Envelope, FlightCore
 
-    # Its episodes end at half its lowest EAS and 25/12 of its highest, as the paper's end at 4 and 25.
-    assert CoreConfig(aircraft=str(small)).envelope.eas_range_mps == (5.0, 31.25)
-    assert CoreConfig().envelope.eas_range_mps == (4.0, 25.0)
+    # Its episodes end at half its lowest EAS and 25/12 of its highest, as the paper's end at 4 and 25,
+    # however its configuration was made (training replaces the aircraft of a default one).
+    from dataclasses import replace
+
+    assert FlightCore(CoreConfig(aircraft=str(small))).ends.eas_range_mps == (5.0, 31.25)
+    assert FlightCore(replace(CoreConfig(), aircraft=str(small))).ends.eas_range_mps == (5.0, 31.25)
+    assert FlightCore(CoreConfig()).ends.eas_range_mps == (4.0, 25.0)
     # The small aircraft as if its envelope went up to 25 km, past the flight core's 22 km.
     high = tmp_path / "aircraft" / "small_solar_uav"
     shutil.copytree(small / "aircraft" / "small_solar_uav", high)

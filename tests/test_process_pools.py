@@ -3,7 +3,7 @@ OpenMP threads finishes (a forked worker inherited a dead thread pool and waited
 each worker runs one torch thread, and Ctrl-C stops the command and its workers in one line.
 
 The commands run in their own processes here with ``OMP_NUM_THREADS=2``, as on a fresh 2-core
-machine: the suite's own setting of 1 thread (conftest.py) hid the deadlock."""
+machine: with the suite's own setting of 1 thread (conftest.py) no pool would deadlock."""
 
 import os
 import signal
@@ -104,7 +104,7 @@ def test_ctrl_c_stops_the_benchmark_and_its_workers_in_one_line(when, tmp_path):
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
     assert proc.returncode == 130, err
-    assert took_s < 10.0
+    assert took_s < 20.0, took_s  # the workers' SIGTERM grace is 5 s; a loaded machine is slower
     assert err.strip().splitlines() == ["benchmark: stopped by SIGINT (Ctrl-C) before it finished"], err
     deadline = time.monotonic() + 10.0
     while _group_pids(proc.pid) and time.monotonic() < deadline:

@@ -296,7 +296,7 @@ def test_torchrl_log_lines_go_above_the_progress_bar(monkeypatch):
     from training.runtime import torchrl_logs_to_stderr
 
     handlers = [h for h in logging.getLogger("torchrl").handlers if isinstance(h, logging.StreamHandler)]
-    streams = [h.stream for h in handlers]
+    streams, formatters = [h.stream for h in handlers], [h.formatter for h in handlers]
     err = io.StringIO()
     monkeypatch.setattr(sys, "stderr", err)
     try:
@@ -307,8 +307,9 @@ def test_torchrl_log_lines_go_above_the_progress_bar(monkeypatch):
         bar.update(5)
         bar.close()
     finally:
-        for handler, stream in zip(handlers, streams):
+        for handler, stream, formatter in zip(handlers, streams, formatters):
             handler.setStream(stream)
+            handler.setFormatter(formatter)
     pieces = re.split("[\r\n]", err.getvalue())
     logged = [p for p in pieces if "storage ready" in p]
     assert logged and not any("train" in p for p in logged)

@@ -186,6 +186,7 @@ def run_command(main: Callable[[], int | None], script: str | Path) -> None:
         signal.signal(signal.SIGTERM, _raise_stopped)
     try:
         code = main()
+        sys.stdout.flush()  # here, so that a reader gone away (BrokenPipeError) is handled below
     except KeyboardInterrupt as stop:
         which = getattr(stop, "signal_name", "SIGINT")
         print(f"{name}: stopped by {which}{' (Ctrl-C)' if which == 'SIGINT' else ''} before it finished",

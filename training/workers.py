@@ -20,7 +20,6 @@ import multiprocessing
 import os
 import signal
 import sys
-import threading
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 
@@ -30,20 +29,18 @@ STOP_GRACE_S = 5.0  # how long a terminated worker may take to end before it is 
 
 
 class _WorkerProcess(multiprocessing.context.SpawnProcess):
-    """A spawned worker that ignores Ctrl-C from its first instruction: the parent ignores SIGINT
-    for the moment it starts the new interpreter, which keeps an ignored signal ignored (Python
-    installs its KeyboardInterrupt handler only over the default one). A worker still importing
-    when Ctrl-C comes would otherwise print a traceback of its own."""
+    """A spawned worker that never sees Ctrl-C: the parent blocks SIGINT for the moment it starts
+    the new interpreter, which inherits the blocked signal; the worker ignores it before it
+    unblocks it (``_start_worker``), so a Ctrl-C during its imports is held, then dropped, instead
+    of printing a traceback of its own. In the parent a Ctrl-C that came meanwhile is held too and
+    delivered when it unblocks, never lost."""
 
     def start(self) -> None:
-        if threading.current_thread() is not threading.main_thread():  # only it may set handlers
-            super().start()
-            return
-        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+        previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
         try:
             super().start()
         finally:
-            signal.signal(signal.SIGINT, previous)
+            signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 class _WorkerContext(multiprocessing.context.SpawnContext):
@@ -51,8 +48,11 @@ class _WorkerContext(multiprocessing.context.SpawnContext):
 
 
 def _start_worker(initializer: Callable | None, initargs: tuple) -> None:
-    """Runs first in every worker: one torch thread (where a module the worker unpickled has loaded
-    torch already; the variables cover a later import), then the caller's ``initializer``."""
+    """Runs first in every worker: Ctrl-C ignored, then no longer blocked (``_WorkerProcess``), one
+    torch thread (where a module the worker unpickled has loaded torch already; the variables cover
+    a later import), then the caller's ``initializer``."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     torch = sys.modules.get("torch")
     if torch is not None:
         torch.set_num_threads(1)

@@ -77,15 +77,17 @@ def solve_tail_incidence(geometry: AircraftGeometry, log=None) -> AircraftGeomet
     for _ in range(8):
         if abs(f1) < TAIL_INCIDENCE_TOLERANCE_CM or f1 == f0:
             break
-        x0, x1, f0 = x1, x1 - f1 * (x1 - x0) / (f1 - f0), f1
-        if not -15.0 <= x1 <= 15.0:
-            break
+        step = x1 - f1 * (x1 - x0) / (f1 - f0)
+        if not -15.0 <= step <= 15.0:
+            raise ValueError(f"horizontal_tail.incidence_deg = \"trim\": the incidence that trims {geometry.name} at "
+                             f"its reference EAS with the elevator at zero lies beyond +-15 deg (the secant points to "
+                             f"{step:.1f} deg); give the incidence as a number, or move the tail or the static margin")
+        x0, x1, f0 = x1, step, f1
         f1 = cruise_cm(x1)
-    if abs(f1) >= TAIL_INCIDENCE_TOLERANCE_CM or not -15.0 <= x1 <= 15.0:
-        raise ValueError(f"horizontal_tail.incidence_deg = \"trim\": no incidence within +-15 deg trims "
-                         f"{geometry.name} at its reference EAS with the elevator at zero (the last tried, "
-                         f"{x1:.2f} deg, leaves a pitching moment of {f1:.2g}); give the incidence as a number, or "
-                         "move the tail or the static margin")
+    if abs(f1) >= TAIL_INCIDENCE_TOLERANCE_CM:
+        raise ValueError(f"horizontal_tail.incidence_deg = \"trim\": no incidence found that trims {geometry.name} "
+                         f"at its reference EAS with the elevator at zero ({x1:.2f} deg, the last tried, leaves a "
+                         f"pitching moment of {f1:.2g}); give the incidence as a number")
     if log is not None:
         log(f"horizontal tail incidence solved: {x1:.3f} deg trims at {geometry.envelope.reference_eas_mps:g} m/s "
             "EAS with the elevator at zero")

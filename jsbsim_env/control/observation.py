@@ -29,8 +29,9 @@ A controller that reads error integrals (``StackSettings.error_integrals``,
 ``INTEGRAL_SCALE_DEG_S``, between the last action and the goals (which close every observation):
 ``observation_size(error_integrals=True)`` = 23.
 
-The action (``ACTION_SIZE`` = 4, each in [-1, 1]) maps linearly to the commands of the paper's
-Table 2: aileron and elevator +-30 deg, rudder +-20 deg, throttle 0..1.
+The action (``ACTION_SIZE`` = 4, each in [-1, 1]) maps linearly to each surface's travel and the
+throttle 0..1 (``action_scale``): on the paper's aircraft its Table 2, aileron and elevator
++-30 deg, rudder +-20 deg (the default ``ACTION_SCALE``).
 
     >>> import numpy as np
     >>> action_to_command(np.array([0.5, -1.0, 0.0, 0.0]))  # aileron, elevator, rudder deg; throttle
@@ -150,11 +151,13 @@ def scale_row(raw: list[float], noise: list[float] | None = None) -> list[float]
     return [(x + n - o) * k for x, n, o, k in zip(raw, noise, _OBS_OFFSET_LIST, _OBS_INV_SCALE_LIST)]
 
 
-def initial_last_action(measurement) -> list[float]:
+def initial_last_action(measurement, scale: np.ndarray = ACTION_SCALE) -> list[float]:
     """The "last action" at the start of an episode: the measured actuator positions (rad, rad, rad,
-    throttle) as an action, which is the trim command the aircraft starts settled on."""
+    throttle) as an action of the aircraft whose ``action_scale`` is ``scale`` (the paper's by
+    default), which is the trim command the aircraft starts settled on."""
     m = np.asarray(measurement, dtype=float)
-    return command_to_action(np.array([math.degrees(m[9]), math.degrees(m[10]), math.degrees(m[11]), m[12]])).tolist()
+    return command_to_action(np.array([math.degrees(m[9]), math.degrees(m[10]), math.degrees(m[11]), m[12]]),
+                             scale).tolist()
 
 
 class ObservationWindow:

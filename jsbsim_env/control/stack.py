@@ -153,7 +153,7 @@ class ControlStack:
         given = self.goal_trim.goal(asked) if self.goal_trim is not None else asked
         first = self.last_action is None
         if first:
-            self.last_action = initial_last_action(measurement)
+            self.last_action = initial_last_action(measurement, self._action_scale)
         if not first:  # the integrators start from zero with the flight, as in training
             if self.surface_trim is not None:
                 self.surface_trim.integrate(dt_s, measurement, given)

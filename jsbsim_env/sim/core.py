@@ -63,8 +63,8 @@ class Envelope:
     max_abs_roll_deg: float = 60.0
     max_abs_pitch_deg: float = 45.0
     alpha_range_deg: tuple[float, float] = (-20.0, 25.0)
-    # None: the flown aircraft's EAS range widened as the paper's is (``ends_for``): 8-12 m/s gives
-    # 4-25 m/s; a fixed range would end a faster aircraft's episodes inside its own envelope.
+    # None: the flown aircraft's EAS range widened as the paper's is (``ends_for``, which the flight
+    # core applies: ``FlightCore.ends``): 8-12 m/s gives 4-25 m/s, 17-23 m/s gives 8.5-47.9 m/s.
     eas_range_mps: tuple[float, float] | None = None
     # Lower bound: height above the terrain (below it, a ground strike). The terrain lies
     # sim.TERRAIN_BELOW_FLOOR_M (100 m) below the envelope's floor (sea level for the paper's
@@ -132,10 +132,9 @@ class CoreConfig:
         if isinstance(self.aircraft, Path):  # a path is kept as text: the configuration is written as JSON
             object.__setattr__(self, "aircraft", str(self.aircraft))
         try:
-            flown = load_aircraft(self.aircraft)
+            load_aircraft(self.aircraft)
         except AircraftError as err:
             raise ValueError(f"CoreConfig.aircraft: {err}") from None
-        object.__setattr__(self, "envelope", ends_for(self.envelope, flown))  # where its episodes end
         if not (self.noise_scale >= 0.0 and self.parameter_strength >= 0.0):
             raise ValueError(f"noise_scale and parameter_strength must be >= 0, got {self.noise_scale} and "
                              f"{self.parameter_strength}")
@@ -263,8 +262,9 @@ class FlightCore:
         self.start_altitude_range_m, self.start_eas_range_mps = start_ranges(self.sim, self.span_m)
         # The default ends must lie outside the aircraft's envelope; an Envelope given is the user's
         # choice (the tests end episodes on purpose with one).
-        ends = self.config.envelope
-        if ends == ends_for(Envelope(), self.aircraft) and not (ends.eas_range_mps[0] < self.aircraft.eas_range_mps[0]
+        # Where its episodes end: the configuration's envelope, its EAS range the aircraft's where it gives none.
+        self.ends = ends = ends_for(self.config.envelope, self.aircraft)
+        if self.config.envelope == Envelope() and not (ends.eas_range_mps[0] < self.aircraft.eas_range_mps[0]
                 and self.aircraft.eas_range_mps[1] < ends.eas_range_mps[1]
                 and self.aircraft.altitude_range_m[1] < ends.altitude_range_m[1]):
             raise ValueError(f"{self.aircraft.name}'s envelope (EAS {self.aircraft.eas_range_mps[0]:g}-"
@@ -525,8 +525,8 @@ class FlightCore:
 
     def envelope_violation(self) -> str | None:
         """Why the aircraft has left the flight envelope, or None."""
-        code = envelope_code(self.last_true_state, self.height_above_ground_m(), self.config.envelope)
-        return termination_reason(code, self.config.envelope)
+        code = envelope_code(self.last_true_state, self.height_above_ground_m(), self.ends)
+        return termination_reason(code, self.ends)
 
 
 # Episode-end causes, in the order they are checked; code 0 is "inside the envelope".

@@ -256,7 +256,7 @@ class AttitudeTaskBatch:
         core.reset(seed, **overrides)
         self._not_started.discard(i)
         self.states[i] = core.last_true_state = core.true_state()
-        self.last_actions[i] = initial_last_action(self.states[i])
+        self.last_actions[i] = initial_last_action(self.states[i], self.action_scale)
         self.interval_s[i] = core.setup.control_interval_s
         # Goals draw from their own stream of the episode's seed.
         self._goal_rngs[i] = grng = np.random.default_rng(core.rng.integers(2**63))
@@ -298,7 +298,7 @@ class AttitudeTaskBatch:
         for i, a in enumerate(rows):
             if not all(-hi <= x <= hi for x in a):  # NaN fails too
                 raise ActionError(f"action of aircraft {i} is not finite or outside [-1, 1]: {a}")
-        envelope, max_steps = self.config.core.envelope, self.config.core.max_steps
+        envelope, max_steps = self.cores[0].ends, self.config.core.max_steps
         obs, terms = [], []
         codes = [0] * self.num_envs
         self.steps += 1
@@ -444,6 +444,6 @@ class AttitudeTask:
                               f"got shape {action.shape}")
         obs, terms, terminated, truncated, codes = b.step(action[None])
         info = {name: float(terms[0, j]) for j, name in enumerate(REWARD_TERMS)}
-        info.update(termination=termination_reason(int(codes[0]), b.config.core.envelope) or "",
+        info.update(termination=termination_reason(int(codes[0]), self.core.ends) or "",
                     time_s=self.core.time_s, goal=goal, true_state=np.array(b.states[0]))
         return obs[0], float(terms[0, 4]), bool(terminated[0]), bool(truncated[0]), info

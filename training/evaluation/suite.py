@@ -86,7 +86,7 @@ def fly(controller: AttitudeController, batch: AttitudeTaskBatch, seed: int, ste
         end["steps"] = k + 1
         if terminated[0] or truncated[0]:
             end.update(terminated=bool(terminated[0]), truncated=bool(truncated[0]),
-                       reason=termination_reason(int(codes[0]), batch.config.core.envelope) or "")
+                       reason=termination_reason(int(codes[0]), core.ends) or "")
             break
     end["return"] = total
     return rec, end
