@@ -236,12 +236,12 @@ def test_the_suite_the_sweep_and_the_loop_bench_fly_it(small, load_script, tmp_p
 
 def test_where_episodes_end_moves_with_the_envelope_and_an_envelope_reaching_it_is_refused(small, tmp_path):
     import shutil
+    from dataclasses import replace
 
     from jsbsim_env.sim.core import CoreConfig, Envelope, FlightCore
 
     # Its episodes end at half its lowest EAS and 25/12 of its highest, as the paper's end at 4 and 25,
     # however its configuration was made (training replaces the aircraft of a default one).
-    from dataclasses import replace
 
     assert FlightCore(CoreConfig(aircraft=str(small))).ends.eas_range_mps == (5.0, 31.25)
     assert FlightCore(replace(CoreConfig(), aircraft=str(small))).ends.eas_range_mps == (5.0, 31.25)
