@@ -20,7 +20,7 @@ import multiprocessing
 import os
 import signal
 import sys
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
 
 # The thread counts of the libraries a worker may load (torch's OpenMP and MKL, numpy's BLAS).
@@ -47,17 +47,15 @@ class _WorkerContext(multiprocessing.context.SpawnContext):
     Process = _WorkerProcess
 
 
-def _start_worker(initializer: Callable | None, initargs: tuple) -> None:
-    """Runs first in every worker: Ctrl-C ignored, then no longer blocked (``_WorkerProcess``), one
-    torch thread (where a module the worker unpickled has loaded torch already; the variables cover
-    a later import), then the caller's ``initializer``."""
+def _start_worker() -> None:
+    """Runs first in every worker: Ctrl-C ignored, then no longer blocked (``_WorkerProcess``), and
+    one torch thread (where a module the worker unpickled has loaded torch already; the variables
+    cover a later import)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     torch = sys.modules.get("torch")
     if torch is not None:
         torch.set_num_threads(1)
-    if initializer is not None:
-        initializer(*initargs)
 
 
 @contextlib.contextmanager
@@ -91,19 +89,16 @@ def stop_workers(pool: ProcessPoolExecutor, grace_s: float = STOP_GRACE_S) -> No
 
 
 @contextlib.contextmanager
-def process_pool(workers: int, initializer: Callable | None = None, initargs: tuple = (),
-                 grace_s: float = STOP_GRACE_S) -> Iterator[ProcessPoolExecutor]:
+def process_pool(workers: int, grace_s: float = STOP_GRACE_S) -> Iterator[ProcessPoolExecutor]:
     """A pool of ``workers`` fresh processes of one torch thread each, for a ``with`` block. On a
     normal exit it waits for its work; on any exception (Ctrl-C's ``KeyboardInterrupt`` included)
     it stops its workers first (``stop_workers``, giving each ``grace_s`` seconds to end: longer for
-    work that saves itself on SIGTERM) and the exception goes on. ``initializer(*initargs)`` runs in
-    each worker once, as in ``ProcessPoolExecutor``."""
+    work that saves itself on SIGTERM) and the exception goes on."""
     if workers < 1:
         raise ValueError(f"a process pool needs at least 1 worker, got {workers}")
     with _one_thread_environment():
         # Workers start as work is submitted, so the variables stay set while the pool lives.
-        pool = ProcessPoolExecutor(max_workers=workers, mp_context=_WorkerContext(),
-                                   initializer=_start_worker, initargs=(initializer, initargs))
+        pool = ProcessPoolExecutor(max_workers=workers, mp_context=_WorkerContext(), initializer=_start_worker)
         try:
             yield pool
         except BaseException:
@@ -113,13 +108,12 @@ def process_pool(workers: int, initializer: Callable | None = None, initargs: tu
 
 
 @contextlib.contextmanager
-def optional_pool(workers: int, initializer: Callable | None = None,
-                  initargs: tuple = ()) -> Iterator[ProcessPoolExecutor | None]:
+def optional_pool(workers: int) -> Iterator[ProcessPoolExecutor | None]:
     """``process_pool(workers)`` for more than one worker; None (work in this process) for one."""
     if workers <= 1:
         yield None
         return
-    with process_pool(workers, initializer, initargs) as pool:
+    with process_pool(workers) as pool:
         yield pool
 
 
