@@ -88,7 +88,7 @@ def _full_power_w(b: Built, eas_mps: float) -> float:
     sim = b.sim
     trim = sim.trim(b.found.altitude_range_m[0], b.found.reference_eas_mps)
     sim.place_with_controls(b.found.altitude_range_m[0], eas_mps, trim.alpha_deg, 0.0, trim.elevator_deg, 0.0, 1.0)
-    return sim["propulsion/engine[0]/propeller-power-ftlbps"] * 1.35582
+    return sim.shaft_power_w() / sim.engine_count
 
 
 def _powers(report: str) -> list[tuple[float, float]]:

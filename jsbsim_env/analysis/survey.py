@@ -25,8 +25,6 @@ from jsbsim_env.analysis.modes import LinearisationError, linear_modes
 from jsbsim_env.sim.simulation import Simulation, TrimError
 from jsbsim_env.sim.trim_table import grid
 
-FTLBF_PER_S_TO_W = 1.35582  # JSBSim's propeller power is in ft lbf / s
-
 # What a survey point is flagged against: a static margin of at least 5 % of the mean chord (below
 # it the aircraft is close to neutral, and the margin moves with the CG and the model's error), and
 # the flying qualities of MIL-F-8785C, Level 1, Class I (small aircraft), flight phase Category B
@@ -81,12 +79,9 @@ def envelope_survey(aircraft: Aircraft | Path | str) -> list[dict]:
         row: dict = {"altitude_m": altitude_m, "airspeed_eas_mps": eas_mps}
         try:
             trim = sim.trim(altitude_m, eas_mps, check_envelope=False)
-            row.update(trim.as_dict())
-            row["shaft_power_w"] = FTLBF_PER_S_TO_W * sum(sim[f"propulsion/engine[{i}]/propeller-power-ftlbps"]
-                                                          for i in range(sim.engine_count))
-            measured = derivatives.measure(sim, altitude_m, eas_mps)
+            row.update(trim.as_dict(), shaft_power_w=sim.shaft_power_w(), modes=linear_modes(sim, trim))
+            measured = derivatives.measure(sim, altitude_m, eas_mps)  # trims again, then perturbs
             row["static_margin"] = -measured["Cma"] / measured["CLa"]
-            row["modes"] = linear_modes(sim, sim.trim(altitude_m, eas_mps, check_envelope=False))
             row["flags"] = flags(row)
         except (TrimError, LinearisationError) as err:
             row["error"] = str(err)
@@ -157,9 +152,10 @@ def render_survey(rows: list[dict], motor_efficiency: float | None = None) -> li
             lines.append(f"| {r['altitude_m']:.0f} | {r['airspeed_eas_mps']:.1f} | {100 * r['static_margin']:.1f} % | "
                          + " | ".join(_mode_text(r["modes"][n]) for n in names) + " |")
     flagged = [(r, f) for r in moded for f in r["flags"]]
-    lines += ["", "Flagged against a static margin of at least 5 % of the mean chord and MIL-F-8785C Level 1, "
-              "Class I, Category B (short-period ζ 0.30-2.0, phugoid ζ ≥ 0.04, Dutch roll ζ ≥ 0.08 at ≥ 0.4 "
-              "rad/s, roll τ ≤ 1.4 s, spiral doubling in ≥ 20 s): "
+    limits = "; ".join(f"{what} {'' if low is None else f'at least {text(low)}'}"
+                       f"{'' if low is None or high is None else ', '}{'' if high is None else f'at most {text(high)}'}"
+                       for what, _, low, high, text in LIMITS)
+    lines += ["", f"Flagged against a 5 % static margin and MIL-F-8785C Level 1, Class I, Category B ({limits}): "
               + ("nothing." if not flagged else f"{len(flagged)} finding(s), each worth a look (not a failure):"), ""]
     lines += [f"- {r['altitude_m']:.0f} m, {r['airspeed_eas_mps']:g} m/s: {f}" for r, f in flagged]
     return lines

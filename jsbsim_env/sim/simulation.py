@@ -276,6 +276,11 @@ class Simulation:
         """Total thrust of all propellers."""
         return float(sum(self.fdm[f"propulsion/engine[{i}]/thrust-lbs"] for i in range(self.engine_count)) * LBF_TO_N)
 
+    def shaft_power_w(self) -> float:
+        """Total shaft power the propellers absorb (JSBSim's ft lbf/s, in W)."""
+        return float(sum(self.fdm[f"propulsion/engine[{i}]/propeller-power-ftlbps"] for i in range(self.engine_count))
+                     * LBF_TO_N * FT_TO_M)
+
     # ------------------------------------------------------------------ trim
     def _newton(self, altitude_m: float, tas_mps: float, throttle: float,
                 max_iterations: int) -> tuple[np.ndarray, np.ndarray]:
