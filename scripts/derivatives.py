@@ -42,10 +42,9 @@ def condition(args) -> tuple[Aircraft, float, float]:
     """The aircraft ``args`` names, the altitude (m) and EAS (m/s) to measure at (its defaults where
     not given), each checked against its envelope (``ValueError`` naming the option)."""
     flown = load_aircraft(args.aircraft)
-    altitude_m = check_in_envelope(flown.altitude_like_m(DEFAULT_PAPER_ALTITUDE_M) if args.altitude_m is None
-                                   else args.altitude_m, flown.altitude_range_m, "--altitude-m", "m", flown.name)
-    eas_mps = check_in_envelope(flown.reference_eas_mps if args.veas_mps is None else args.veas_mps,
-                                flown.eas_range_mps, "--veas-mps", "m/s", flown.name)
+    altitude_m = flown.altitude_like_m(DEFAULT_PAPER_ALTITUDE_M) if args.altitude_m is None else args.altitude_m
+    eas_mps = flown.reference_eas_mps if args.veas_mps is None else args.veas_mps
+    check_in_envelope(flown, altitude_m, eas_mps)
     return flown, altitude_m, eas_mps
 
 

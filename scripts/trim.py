@@ -22,8 +22,7 @@ def condition(args) -> Aircraft:
     """The aircraft ``args`` names, with the condition checked against its envelope (``ValueError``
     naming the option, its value and the envelope)."""
     flown = load_aircraft(args.aircraft)
-    check_in_envelope(args.altitude_m, flown.altitude_range_m, "--altitude-m", "m", flown.name)
-    check_in_envelope(args.veas_mps, flown.eas_range_mps, "--veas-mps", "m/s", flown.name)
+    check_in_envelope(flown, args.altitude_m, args.veas_mps)
     return flown
 
 

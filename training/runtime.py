@@ -300,13 +300,14 @@ def add_aircraft_options(parser: argparse.ArgumentParser, where: str, transfer: 
                             help="fly a policy on an aircraft it was not trained on (a transfer experiment)")
 
 
-def check_in_envelope(value: float, bounds: tuple[float, float], option: str, unit: str, aircraft_name: str) -> float:
-    """``value`` of ``option`` where it lies in ``bounds`` (a range of the aircraft's envelope);
-    otherwise ``ValueError``: "--altitude-m 25000 is outside small_solar_uav's envelope, [0, 3000] m"."""
-    low, high = bounds
-    if not low <= value <= high:
-        raise ValueError(f"{option} {value:g} is outside {aircraft_name}'s envelope, [{low:g}, {high:g}] {unit}")
-    return value
+def check_in_envelope(flown, altitude_m: float, eas_mps: float) -> None:
+    """Refuse (``ValueError``) a flight condition given as ``--altitude-m`` and ``--veas-mps`` outside
+    the envelope of ``flown`` (an ``aircraft.Aircraft``): "--altitude-m 25000 is outside
+    small_solar_uav's envelope, [0, 3000] m"."""
+    for option, value, (low, high), unit in (("--altitude-m", altitude_m, flown.altitude_range_m, "m"),
+                                             ("--veas-mps", eas_mps, flown.eas_range_mps, "m/s")):
+        if not low <= value <= high:
+            raise ValueError(f"{option} {value:g} is outside {flown.name}'s envelope, [{low:g}, {high:g}] {unit}")
 
 
 def name_list(text: str, allowed, option: str) -> list[str]:
