@@ -140,7 +140,7 @@ def test_pid_on_the_policy_evaluation_suite():
     from training.evaluation.suite import doublet_runs, evaluate
 
     doublets = doublet_runs(PIDAttitudeController(), altitudes_m=(5000.0,))["5000m"]
-    assert not doublets["ended_early"]
+    assert not doublets["ended_early"] and doublets["pitch_doublet_deg"] == pytest.approx(5.0, abs=1e-12)
     for key in ("steady_state_error_roll_deg", "steady_state_error_pitch_deg", "steady_state_error_airspeed_eas_mps"):
         assert all(e < 0.5 for e in doublets[key]), key  # NaN fails too
     assert all(t < 8.0 for t in doublets["settling_time_90_s_roll_deg"]) and doublets["rmse_beta_deg"] < 2.0

@@ -220,6 +220,7 @@ def test_the_suite_the_sweep_and_the_loop_bench_fly_it(small, load_script, tmp_p
     assert doublet_goal(55.0, 12.0)[2] == 13.0 and doublet_goal(65.0)[2] == 9.0  # about its reference EAS
     doublets = doublet_runs(make_controller("pid", aircraft=small), aircraft=small)
     assert list(doublets) == ["75m", "750m", "2250m"] and not any(d["ended_early"] for d in doublets.values())
+    assert all(d["pitch_doublet_deg"] == pytest.approx(2.1, abs=1e-9) for d in doublets.values())  # its glide
     assert parse_axis("altitude_m=500,2500", small) == ("altitude_m", [500.0, 2500.0])
     with pytest.raises(ValueError, match=r"5000 is outside its range \[0, 3000\] m: small_solar_uav's"):
         parse_axis("altitude_m=5000", small)
@@ -232,6 +233,24 @@ def test_the_suite_the_sweep_and_the_loop_bench_fly_it(small, load_script, tmp_p
     assert summary["frames"] == 100 and not summary["ended_early"] and summary["failsafe_takeovers"] == 0
     assert summary["in_process"]["rmse_ratio"]["roll_deg"] == pytest.approx(1.0, abs=1e-6)
     capsys.readouterr()
+
+
+def test_the_pitch_doublet_is_the_papers_on_its_aircraft_and_no_steeper_than_a_flatter_glide(small):
+    """The paper's aircraft flies the paper's +-5 deg pitch doublet (Fig. 9); the small example,
+    a solar glider whose level-flight thrust at 12 m/s is 3.8 % of its weight (a 2.15 deg descent),
+    flies that angle rounded down to 0.1 deg: a 5 deg dive would take it far over its speed."""
+    from training.evaluation.suite import DOUBLET_STEPS, doublet_goal, doublet_steps, pitch_doublet_deg
+
+    assert pitch_doublet_deg() == 5.0 and doublet_steps() == DOUBLET_STEPS
+    assert doublet_steps(10.0, pitch_deg=5.0) == DOUBLET_STEPS
+    pitch = np.degrees([v for c, _, v in DOUBLET_STEPS if c == 1])
+    assert pitch == pytest.approx([5.0, -5.0, 0.0], abs=1e-12)
+    amplitude = pitch_doublet_deg(small)
+    assert amplitude == pytest.approx(2.1, abs=1e-9) and amplitude < 5.0
+    goals = np.degrees([doublet_goal(t, 12.0, pitch_deg=amplitude)[1] for t in (29.0, 35.0, 45.0, 55.0)])
+    assert goals == pytest.approx([0.0, 2.1, -2.1, 0.0], abs=1e-9)
+    assert np.degrees(doublet_goal(35.0, 12.0)[1]) == pytest.approx(5.0, abs=1e-12)  # the default: the paper's
+    assert doublet_goal(35.0, 12.0, pitch_deg=amplitude)[2] == pytest.approx(12.0, abs=1e-12)
 
 
 def test_where_episodes_end_moves_with_the_envelope_and_an_envelope_reaching_it_is_refused(small, tmp_path):

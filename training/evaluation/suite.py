@@ -21,6 +21,9 @@ identical episodes.
 
 Another aircraft (``aircraft``) flies the doublets at the same fractions of its envelope
 (``Aircraft.altitude_like_m``) and about its reference EAS (the EAS doublet to +-1 m/s of it).
+Its pitch doublet is +-5 deg or its steepest steady descent at that EAS if shallower
+(``pitch_doublet_deg``): an aircraft that glides flatter than 5 deg dives far over its speed at
+-5 deg even at zero throttle, and the EAS steps that follow never settle.
 """
 
 from __future__ import annotations
@@ -35,6 +38,7 @@ from aircraft import load_aircraft
 from jsbsim_env.control.base import AttitudeController
 from jsbsim_env.control.observation import action_to_command, command_to_action
 from jsbsim_env.sim.core import CoreConfig, termination_reason
+from jsbsim_env.sim.simulation import LBF_TO_N, Simulation
 from jsbsim_env.task.attitude import AttitudeTaskBatch, TaskConfig
 from jsbsim_env.task.metrics import EpisodeRecorder
 
@@ -48,17 +52,45 @@ EVAL_EPISODE_SEED = 777
 
 
 DOUBLET_EAS_MPS = 10.0  # the EAS of DOUBLET_STEPS: another reference EAS shifts its EAS steps alike
+DOUBLET_PITCH_DEG = 5.0  # the pitch steps' size in DOUBLET_STEPS: another amplitude scales them alike
+
+
+def pitch_doublet_deg(aircraft=None) -> float:
+    """The pitch doublet's amplitude (deg) on ``aircraft`` (the paper's by default).
+
+    The paper's aircraft flies the paper's +-5 deg, as published. Another flies the smaller of 5 deg
+    and its steepest steady descent at its reference EAS, asin(thrust / weight) of its level-flight
+    trim there at the middle doublet altitude (level flight's drag is its thrust; a windmilling rotor
+    adds drag at zero throttle, so the angle it can hold is steeper: this is conservative), rounded
+    down to 0.1 deg (at least 0.1 deg)."""
+    flown = load_aircraft(aircraft)
+    if flown.papers:
+        return DOUBLET_PITCH_DEG
+    sim = Simulation(flown)
+    trim = sim.trim(flown.altitude_like_m(DOUBLET_ALTITUDES_M[1]), flown.reference_eas_mps)
+    glide_deg = math.degrees(math.asin(min(1.0, trim.thrust_n / (sim["inertia/weight-lbs"] * LBF_TO_N))))
+    return max(0.1, math.floor(10.0 * min(DOUBLET_PITCH_DEG, glide_deg)) / 10.0)
 
 
 @functools.cache  # read by the goal every control step
-def doublet_steps(eas_mps: float = DOUBLET_EAS_MPS) -> tuple:
-    """``DOUBLET_STEPS`` about a reference EAS of ``eas_mps`` (itself at 10 m/s)."""
-    return tuple((c, t, v + eas_mps - DOUBLET_EAS_MPS if c == 2 else v) for c, t, v in DOUBLET_STEPS)
+def doublet_steps(eas_mps: float = DOUBLET_EAS_MPS, *, pitch_deg: float = DOUBLET_PITCH_DEG) -> tuple:
+    """``DOUBLET_STEPS`` about a reference EAS of ``eas_mps`` (itself at 10 m/s), the pitch steps
+    ``pitch_deg`` (itself at 5 deg) each way."""
+    def value(channel: int, v: float) -> float:
+        if channel == 2:
+            return v + eas_mps - DOUBLET_EAS_MPS
+        if channel == 1 and v != 0.0:
+            return math.copysign(math.radians(pitch_deg), v)  # the table's own value at 5 deg
+        return v
+
+    return tuple((c, t, value(c, v)) for c, t, v in DOUBLET_STEPS)
 
 
-def doublet_goal(time_s: float, eas_mps: float = DOUBLET_EAS_MPS) -> np.ndarray:
+def doublet_goal(time_s: float, eas_mps: float = DOUBLET_EAS_MPS, *,
+                 pitch_deg: float = DOUBLET_PITCH_DEG) -> np.ndarray:
+    """The scripted goal (roll rad, pitch rad, EAS m/s) at ``time_s`` (``doublet_steps``)."""
     goal = np.array([0.0, 0.0, eas_mps])
-    for channel, start, value in doublet_steps(eas_mps):
+    for channel, start, value in doublet_steps(eas_mps, pitch_deg=pitch_deg):
         if time_s >= start:
             goal[channel] = value
     return goal
@@ -92,10 +124,11 @@ def fly(controller: AttitudeController, batch: AttitudeTaskBatch, seed: int, ste
     return rec, end
 
 
-def step_response_metrics(rec: EpisodeRecorder, eas_mps: float = DOUBLET_EAS_MPS) -> dict:
+def step_response_metrics(rec: EpisodeRecorder, eas_mps: float = DOUBLET_EAS_MPS, *,
+                          pitch_deg: float = DOUBLET_PITCH_DEG) -> dict:
     """Steady-state error and 90 % settling time of each scripted step (see the module docstring),
-    about a reference EAS of ``eas_mps``."""
-    steps = doublet_steps(eas_mps)
+    about a reference EAS of ``eas_mps``, the pitch steps ``pitch_deg`` each way."""
+    steps = doublet_steps(eas_mps, pitch_deg=pitch_deg)
     a = rec.arrays()
     t, s = a["time_s"], a["true_state"]
     signals = {0: np.degrees(s[:, 1]), 1: np.degrees(s[:, 2]), 2: s[:, 6]}
@@ -132,10 +165,12 @@ def doublet_runs(controller: AttitudeController, altitudes_m=None, plot_dir: Pat
                  prefix: str = "doublets", aircraft=None) -> dict:
     """The paper's Section 5: the scripted doublets from a slightly perturbed start at each altitude
     (``DOUBLET_ALTITUDES_M`` moved into the envelope of ``aircraft``, the paper's by default, when
-    None), no delay, noise or perturbation of the aircraft. Returns metrics per altitude; writes the
+    None), no delay, noise or perturbation of the aircraft; the pitch steps ``pitch_doublet_deg``
+    each way. Returns metrics per altitude (with that amplitude, ``pitch_doublet_deg``); writes the
     Fig. 9 plots and time histories to ``plot_dir``."""
     flown = load_aircraft(aircraft)
     eas = flown.reference_eas_mps  # the paper's aircraft's: 10 m/s
+    pitch = pitch_doublet_deg(flown)  # the paper's aircraft's: 5 deg
     if altitudes_m is None:
         altitudes_m = tuple(flown.altitude_like_m(h) for h in DOUBLET_ALTITUDES_M)
     results = {}
@@ -145,12 +180,15 @@ def doublet_runs(controller: AttitudeController, altitudes_m=None, plot_dir: Pat
     steps = int(DOUBLET_END_S / 0.05)
     for altitude in altitudes_m:
         rec, end = fly(controller, batch, seed=int(altitude), steps=steps,
-                       goal_fn=lambda t: doublet_goal(t, eas), altitude_m=altitude, airspeed_eas_mps=eas)
-        results[f"{altitude:.0f}m"] = {**rec.tracking_metrics(), **step_response_metrics(rec, eas),
-                                       "ended_early": end["terminated"], "termination": end["reason"]}
+                       goal_fn=lambda t: doublet_goal(t, eas, pitch_deg=pitch), altitude_m=altitude,
+                       airspeed_eas_mps=eas)
+        results[f"{altitude:.0f}m"] = {**rec.tracking_metrics(), **step_response_metrics(rec, eas, pitch_deg=pitch),
+                                       "ended_early": end["terminated"], "termination": end["reason"],
+                                       "pitch_doublet_deg": pitch}
         if plot_dir is not None:
             Path(plot_dir).mkdir(parents=True, exist_ok=True)
-            rec.plot(Path(plot_dir) / f"{prefix}_{altitude:.0f}m.png", f"Doublets at {altitude:.0f} m, EAS {eas:g} m/s")
+            rec.plot(Path(plot_dir) / f"{prefix}_{altitude:.0f}m.png",
+                     f"Doublets at {altitude:.0f} m, EAS {eas:g} m/s, pitch ±{pitch:g} deg")
             rec.save(Path(plot_dir) / f"{prefix}_{altitude:.0f}m.npz")
     return results
 
@@ -193,11 +231,13 @@ def suite_episodes(controller: AttitudeController, episodes: int = 50, progress:
 __all__ = [
     "DOUBLET_ALTITUDES_M",
     "DOUBLET_EAS_MPS",
+    "DOUBLET_PITCH_DEG",
     "doublet_goal",
     "doublet_runs",
     "doublet_steps",
     "evaluate",
     "fly",
+    "pitch_doublet_deg",
     "step_response_metrics",
     "suite_episodes",
 ]
