@@ -70,14 +70,19 @@ def fmt(x: float) -> str:
 
 
 def reset_file(altitude_m: float, tas_mps: float, alpha_deg: float = 0.0, psi_deg: float = 0.0,
-               name: str = "reset", header: str = HEADER) -> str:
+               name: str = "reset", header: str = HEADER, beta_deg: float = 0.0) -> str:
     """A JSBSim initial-condition file: wings level, pitch equal to alpha (level flight), motors running.
 
     The speed is given as body velocity components after the attitude: JSBSim applies a file's
     attitude before its speeds, and with ``vt`` and ``alpha`` it would keep a flight-path angle
-    left over from the previous state instead of flying level.
+    left over from the previous state instead of flying level. A sideslip (a single rotor's
+    lateral trim) adds the side component; wings level, the flight path stays level.
     """
-    alpha_rad = np.radians(alpha_deg)
+    alpha_rad, beta_rad = np.radians(alpha_deg), np.radians(beta_deg)
+    along = tas_mps * M_TO_FT * np.cos(beta_rad)  # the speed in the body's plane of symmetry, ft/s
+    side = f"""  <vbody unit="FT/SEC"> {fmt(tas_mps * M_TO_FT * np.sin(beta_rad))} </vbody>
+""" if beta_deg else ""
+    slip = f" and sideslip {fmt(beta_deg)} deg" if beta_deg else ""
     return header + f"""<initialize name="{name}">
   <latitude unit="DEG"> 40.0 </latitude>
   <longitude unit="DEG"> 116.0 </longitude>
@@ -85,9 +90,9 @@ def reset_file(altitude_m: float, tas_mps: float, alpha_deg: float = 0.0, psi_de
   <phi unit="DEG"> 0 </phi>
   <theta unit="DEG"> {fmt(alpha_deg)} </theta>
   <psi unit="DEG"> {fmt(psi_deg)} </psi>
-  <!-- true airspeed {fmt(tas_mps)} m/s at alpha {fmt(alpha_deg)} deg, no wind -->
-  <ubody unit="FT/SEC"> {fmt(tas_mps * M_TO_FT * np.cos(alpha_rad))} </ubody>
-  <wbody unit="FT/SEC"> {fmt(tas_mps * M_TO_FT * np.sin(alpha_rad))} </wbody>
+  <!-- true airspeed {fmt(tas_mps)} m/s at alpha {fmt(alpha_deg)} deg{slip}, no wind -->
+  <ubody unit="FT/SEC"> {fmt(along * np.cos(alpha_rad))} </ubody>
+{side}  <wbody unit="FT/SEC"> {fmt(along * np.sin(alpha_rad))} </wbody>
   <running> -1 </running>
 </initialize>
 """

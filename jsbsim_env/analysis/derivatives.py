@@ -62,7 +62,7 @@ def measure(sim: Simulation, altitude_m: float, airspeed_eas_mps: float) -> dict
     chord_m = sim["metrics/cbarw-ft"] * FT_TO_M
     rate_per_hat = {"p": 2.0 * tas / span_m, "q": 2.0 * tas / chord_m, "r": 2.0 * tas / span_m}
 
-    def at(alpha_deg=trim.alpha_deg, beta_deg=0.0, roll_deg=0.0, rates=(0.0, 0.0, 0.0)) -> tuple[dict, float]:
+    def at(alpha_deg=trim.alpha_deg, beta_deg=trim.beta_deg, roll_deg=0.0, rates=(0.0, 0.0, 0.0)) -> tuple[dict, float]:
         sim.set_initial_conditions(altitude_m, tas, alpha_deg=alpha_deg, pitch_deg=trim.pitch_deg,
                                    roll_deg=roll_deg, beta_deg=beta_deg, rates_radps=rates)
         return coefficients(sim), _alphadot_hat(sim)
@@ -84,7 +84,8 @@ def measure(sim: Simulation, altitude_m: float, airspeed_eas_mps: float) -> dict
     d = difference(at(alpha_deg=trim.alpha_deg + step_deg), at(alpha_deg=trim.alpha_deg - step_deg),
                    2.0 * ANGLE_STEP_RAD, alphadot)
     out.update({f"{c}a": v for c, v in d.items()})
-    d = difference(at(beta_deg=step_deg), at(beta_deg=-step_deg), 2.0 * ANGLE_STEP_RAD, alphadot)
+    d = difference(at(beta_deg=trim.beta_deg + step_deg), at(beta_deg=trim.beta_deg - step_deg), 2.0 * ANGLE_STEP_RAD,
+                   alphadot)
     out.update({f"{c}b": v for c, v in d.items()})
     for k, axis in enumerate("pqr"):
         rates = [0.0, 0.0, 0.0]
@@ -99,14 +100,15 @@ def measure(sim: Simulation, altitude_m: float, airspeed_eas_mps: float) -> dict
 
 
 def _control_derivatives(sim: Simulation, trim: TrimResult, alphadot: dict[str, float]) -> dict[str, float]:
-    base = [0.0, trim.elevator_deg, 0.0]
+    base = [trim.aileron_deg, trim.elevator_deg, trim.rudder_deg]
     out = {}
     for k, name in enumerate(("da", "de", "dr")):
         measured = []
         for sign in (1.0, -1.0):
             surfaces = list(base)
             surfaces[k] += sign * CONTROL_STEP_DEG
-            sim.place_with_controls(trim.altitude_m, trim.airspeed_tas_mps, trim.alpha_deg, *surfaces, trim.throttle)
+            sim.place_with_controls(trim.altitude_m, trim.airspeed_tas_mps, trim.alpha_deg, *surfaces, trim.throttle,
+                                    beta_deg=trim.beta_deg)
             measured.append((coefficients(sim), _alphadot_hat(sim)))
         d_adot = measured[0][1] - measured[1][1]
         step_rad = math.radians(2.0 * CONTROL_STEP_DEG)
@@ -137,7 +139,7 @@ def aileron_step_adverse_yaw(sim: Simulation, altitude_m: float, airspeed_eas_mp
     Also returns the roll rate at that moment and the time it happens.
     """
     trim = sim.trim(altitude_m, airspeed_eas_mps)
-    sim.set_controls(aileron_deg, trim.elevator_deg, 0.0, trim.throttle)
+    sim.set_controls(trim.aileron_deg + aileron_deg, trim.elevator_deg, trim.rudder_deg, trim.throttle)
     f = sim.fdm
     p, r = [], []
     for _ in range(round(duration_s / sim.dt_s)):

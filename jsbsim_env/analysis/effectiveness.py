@@ -47,7 +47,8 @@ def effectiveness_at(sim: Simulation, altitude_m: float, airspeed_eas_mps: float
         moment = control[name] * qbar_s * sim[f"metrics/{length}"] * FT_TO_M * math.pi / 180.0
         out[f"{surface}_moment_nm_per_deg"] = float(moment)
         out[f"{surface}_rate_degps_per_deg"] = float(math.degrees(moment / inertia[k] / damping[surface]))
-    sim.place_with_controls(altitude_m, trim.airspeed_tas_mps, trim.alpha_deg, 0.0, trim.elevator_deg, 0.0, 1.0)
+    sim.place_with_controls(altitude_m, trim.airspeed_tas_mps, trim.alpha_deg, trim.aileron_deg, trim.elevator_deg,
+                            trim.rudder_deg, 1.0, beta_deg=trim.beta_deg)
     out["thrust_full_throttle_n"] = sim.thrust_n()
     out["thrust_trim_n"] = trim.thrust_n
     sim.trim(altitude_m, airspeed_eas_mps)

@@ -125,7 +125,7 @@ def linearise(sim: Simulation, trim: TrimResult) -> tuple[np.ndarray, np.ndarray
     Leaves the aircraft at the trimmed state.
     """
     x0 = {"V": trim.airspeed_tas_mps, "alpha": math.radians(trim.alpha_deg), "theta": math.radians(trim.pitch_deg),
-          "q": 0.0, "beta": 0.0, "phi": 0.0, "p": 0.0, "r": 0.0}
+          "q": 0.0, "beta": math.radians(trim.beta_deg), "phi": 0.0, "p": 0.0, "r": 0.0}
     blocks = []
     for names in (LONGITUDINAL_STATES, LATERAL_STATES):
         a = np.empty((4, 4))
@@ -153,8 +153,8 @@ def control_derivatives(sim: Simulation, trim: TrimResult) -> tuple[np.ndarray, 
     the aircraft at the trimmed state with the trimmed controls.
     """
     x0 = {"V": trim.airspeed_tas_mps, "alpha": math.radians(trim.alpha_deg), "theta": math.radians(trim.pitch_deg),
-          "q": 0.0, "beta": 0.0, "phi": 0.0, "p": 0.0, "r": 0.0}
-    base = np.array([0.0, trim.elevator_deg, 0.0, trim.throttle])
+          "q": 0.0, "beta": math.radians(trim.beta_deg), "phi": 0.0, "p": 0.0, "r": 0.0}
+    base = np.array([trim.aileron_deg, trim.elevator_deg, trim.rudder_deg, trim.throttle])
     columns = []
     for j, h in enumerate(CONTROL_PERTURBATION):
         derivs = []

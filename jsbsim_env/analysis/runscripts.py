@@ -85,12 +85,14 @@ def runscript(run: DoubletRun, trim: TrimResult, flown: aircraft.Aircraft | None
     flown = flown or aircraft.load_aircraft()
     limits = dict(zip(aircraft.SURFACES, flown.surface_limits_deg))  # its normalised commands' scale
     elevator_norm = trim.elevator_deg / limits["elevator"]
+    aileron_norm, rudder_norm = trim.aileron_deg / limits["aileron"], trim.rudder_deg / limits["rudder"]
     de = run.elevator_doublet_deg / limits["elevator"]
     da = run.aileron_doublet_deg / limits["aileron"]
     half, te, ta = run.doublet_half_period_s, run.elevator_start_s, run.aileron_start_s
     events = [
         _event("trimmed controls, wing leveler on; the aircraft held and unlogged while the rotors spin up", 0.0, [
             _set("fcs/elevator-cmd-norm", elevator_norm), _set("fcs/throttle-cmd-norm[0]", trim.throttle),
+            _set("fcs/aileron-cmd-norm", aileron_norm), _set("fcs/rudder-cmd-norm", rudder_norm),
             _set("ap/roll-cmd-deg", 0.0), _set("ap/wing-leveler-active", 1.0),
             _set("simulation/models/FGPropagate/enabled", 0.0), _set("simulation/models/FGOutput/enabled", 0.0)]),
         _event("released, trimmed: rotors at their trimmed speed", SPIN_UP_S, [
@@ -99,18 +101,20 @@ def runscript(run: DoubletRun, trim: TrimResult, flown: aircraft.Aircraft | None
         _event("elevator doublet: trailing edge up", te + half, [_set("fcs/elevator-cmd-norm", elevator_norm - de)]),
         _event("elevator doublet: back to trim", te + 2 * half, [_set("fcs/elevator-cmd-norm", elevator_norm)]),
         _event("aileron doublet: wing leveler off, positive", ta, [
-            _set("ap/wing-leveler-active", 0.0), _set("fcs/aileron-cmd-norm", da)]),
-        _event("aileron doublet: negative", ta + half, [_set("fcs/aileron-cmd-norm", -da)]),
-        _event("aileron doublet: centred", ta + 2 * half, [_set("fcs/aileron-cmd-norm", 0.0)]),
+            _set("ap/wing-leveler-active", 0.0), _set("fcs/aileron-cmd-norm", aileron_norm + da)]),
+        _event("aileron doublet: negative", ta + half, [_set("fcs/aileron-cmd-norm", aileron_norm - da)]),
+        _event("aileron doublet: back to trim", ta + 2 * half, [_set("fcs/aileron-cmd-norm", aileron_norm)]),
         _event("wing leveler back on", ta + 2 * half + 3.0, [_set("ap/wing-leveler-active", 1.0)]),
     ]
+    lateral = "" if not (trim.aileron_deg or trim.rudder_deg or trim.beta_deg) else (
+        f"; aileron {trim.aileron_deg:.3f} deg, rudder {trim.rudder_deg:.3f} deg, sideslip {trim.beta_deg:.3f} deg")
     logged = "\n".join(f"    <property> {p} </property>" for p in LOGGED_PROPERTIES)
     where = "repository root" if flown.packaged else "folder it was built into (its JSBSim root)"
     return HEADER + f"""<runscript xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance" name="{run.name}">
   <description>
     {flown.name} trimmed at {fmt(run.altitude_m)} m, EAS {fmt(run.airspeed_eas_mps)} m/s (TAS {trim.airspeed_tas_mps:.2f} m/s):
     alpha {trim.alpha_deg:.3f} deg, elevator {trim.elevator_deg:.3f} deg, throttle {trim.throttle:.4f}
-    ({trim.rotor_rpm:.0f} rpm). Held for {fmt(SPIN_UP_S)} s while the rotors spin up from rest (not logged but
+    ({trim.rotor_rpm:.0f} rpm){lateral}. Held for {fmt(SPIN_UP_S)} s while the rotors spin up from rest (not logged but
     for JSBSim's first row at 0 s), then released trimmed. Elevator doublet +-{fmt(run.elevator_doublet_deg)} deg at {fmt(te)} s, aileron
     doublet +-{fmt(run.aileron_doublet_deg)} deg at {fmt(ta)} s, each {fmt(half)} s a side. Run from the {where}:
     jsbsim --root . scripts/{run.name}.xml   (writes {run.name}.csv)
@@ -135,7 +139,8 @@ def generated_files(sim: Simulation | None = None, flown=None) -> dict[str, str]
     for run in runs_for(sim.aircraft):
         trim = sim.trim(run.altitude_m, run.airspeed_eas_mps)
         files[(folder / f"{run.initial_conditions}.xml").as_posix()] = reset_file(
-            run.altitude_m, trim.airspeed_tas_mps, trim.alpha_deg, name=run.initial_conditions, header=HEADER)
+            run.altitude_m, trim.airspeed_tas_mps, trim.alpha_deg, name=run.initial_conditions, header=HEADER,
+            beta_deg=trim.beta_deg)
         files[f"scripts/{run.name}.xml"] = runscript(run, trim, sim.aircraft)
     return files
 

@@ -379,9 +379,9 @@ class FlightCore:
         trim = self.trim_table.lookup(alt, eas)
         rho_ratio = sim.density_kg_m3(alt) / RHO0_KG_M3
         tas = eas / math.sqrt(rho_ratio)
-        sim.set_initial_conditions(alt, tas, alpha_deg=trim.alpha_deg)
+        sim.set_initial_conditions(alt, tas, alpha_deg=trim.alpha_deg, beta_deg=trim.beta_deg)
         # Bring actuators and rotors (at rest in a fresh instance) to the trim commands.
-        trim_command = np.array([0.0, trim.elevator_deg, 0.0, trim.throttle])
+        trim_command = np.array([trim.aileron_deg, trim.elevator_deg, trim.rudder_deg, trim.throttle])
         self._write_command(trim_command)
         sim.settle_actuators(fast=True)
         att = np.radians(cfg.perturb_attitude_deg) * perturb[:2]
@@ -389,7 +389,7 @@ class FlightCore:
         eas0 = eas + cfg.perturb_eas_mps * perturb[5]
         tas0 = eas0 / math.sqrt(rho_ratio)
         sim.set_initial_conditions(alt, tas0, alpha_deg=trim.alpha_deg, pitch_deg=trim.alpha_deg + math.degrees(att[1]),
-                                   roll_deg=math.degrees(att[0]), heading_deg=heading,
+                                   roll_deg=math.degrees(att[0]), heading_deg=heading, beta_deg=trim.beta_deg,
                                    rates_radps=tuple(rates))
         self.setup = EpisodeSetup(seed, alt, eas, interval, delay, scales, trim_command)
         self.turbulence = None

@@ -39,11 +39,27 @@ DEFAULT_SIM_RATE_HZ = 120.0
 # m/s (about a constant advance ratio at constant EAS). The full-throttle speed turns it into a throttle.
 ROTOR_RPM_GUESS_PER_TAS_MPS = 25.0
 _TRIM_BOUNDS = (np.array([-10.0, -30.0, 0.0]), np.array([14.0, 30.0, 1.0]))  # alpha deg, elevator deg, throttle
+# The lateral trim's sideslip bound (deg); the aileron and rudder are bounded by the aircraft's travel.
+LATERAL_TRIM_BETA_DEG = 10.0
+# Rounds of the longitudinal and the lateral solution in turn (their coupling is weak: two suffice).
+MAX_TRIM_ROUNDS = 4
 
 
-def _trimmed(r: np.ndarray) -> bool:
-    """Whether residual accelerations (m/s², m/s², rad/s²) are those of a trim."""
-    return bool(np.all(np.abs(r[:2]) < 1e-3) and abs(r[2]) < 1e-4)
+# The six residual accelerations: udot, wdot (m/s²), qdot (rad/s²), vdot (m/s²), pdot, rdot (rad/s²).
+LONGITUDINAL, LATERAL = slice(0, 3), slice(3, 6)
+_TRANSLATIONAL = np.array([True, True, False, True, False, False])
+
+
+def _trimmed(r: np.ndarray, part: slice, tighter: float = 1.0) -> bool:
+    """Whether the ``part`` of the six residual accelerations ``r`` is that of a trim: 1e-3 m/s²
+    and 1e-4 rad/s², ``tighter`` times less."""
+    linear, residual = _TRANSLATIONAL[part], np.abs(r[part])
+    return bool(np.all(residual[linear] < 1e-3 / tighter) and np.all(residual[~linear] < 1e-4 / tighter))
+
+
+def _converged(r: np.ndarray, part: slice) -> bool:
+    """Where the Newton iteration stops: ten times inside ``_trimmed``."""
+    return _trimmed(r, part, tighter=10.0)
 
 
 # Rotor reference lag during a fast settle: a tenth of a 120 Hz step, well inside the Tustin
@@ -68,7 +84,12 @@ class TrimError(RuntimeError):
 
 @dataclass(frozen=True)
 class TrimResult:
-    """A steady, wings-level, constant-altitude flight condition."""
+    """A steady, wings-level, constant-altitude flight condition.
+
+    The lateral trim (sideslip, aileron, rudder) is zero for a symmetric aircraft; one whose
+    propeller torque is not cancelled (a single rotor) holds it with aileron and rudder and a
+    small sideslip, wings level.
+    """
 
     altitude_m: float
     airspeed_eas_mps: float
@@ -81,6 +102,9 @@ class TrimResult:
     thrust_n: float
     residual_accel_mps2: float  # largest remaining translational acceleration
     residual_ang_accel_radps2: float  # largest remaining angular acceleration
+    aileron_deg: float = 0.0
+    rudder_deg: float = 0.0
+    beta_deg: float = 0.0
 
     def as_dict(self) -> dict[str, float]:
         """Plain dict, for JSON output."""
@@ -251,14 +275,14 @@ class Simulation:
             rpm_prev = rpm
 
     def place_with_controls(self, altitude_m: float, tas_mps: float, alpha_deg: float, aileron_deg: float,
-                            elevator_deg: float, rudder_deg: float, throttle: float) -> None:
+                            elevator_deg: float, rudder_deg: float, throttle: float, beta_deg: float = 0.0) -> None:
         """Wings-level, level flight at the given condition with the actuators and rotors settled
         at the given controls (JSBSim's initial-condition pass keeps actuator states, so they are
         brought to the controls first, then the aircraft is placed again)."""
-        self.set_initial_conditions(altitude_m, tas_mps, alpha_deg=alpha_deg)
+        self.set_initial_conditions(altitude_m, tas_mps, alpha_deg=alpha_deg, beta_deg=beta_deg)
         self.set_controls(aileron_deg, elevator_deg, rudder_deg, throttle)
         self.settle_actuators()
-        self.set_initial_conditions(altitude_m, tas_mps, alpha_deg=alpha_deg)
+        self.set_initial_conditions(altitude_m, tas_mps, alpha_deg=alpha_deg, beta_deg=beta_deg)
 
     def inertia_kg_m2(self) -> Inertia:
         """The inertia JSBSim integrates with.
@@ -282,48 +306,75 @@ class Simulation:
                      * LBF_TO_N * FT_TO_M)
 
     # ------------------------------------------------------------------ trim
-    def _newton(self, altitude_m: float, tas_mps: float, throttle: float,
+    def _newton(self, altitude_m: float, tas_mps: float, x: np.ndarray, lateral: bool,
                 max_iterations: int) -> tuple[np.ndarray, np.ndarray]:
-        """Newton iteration on angle of attack, elevator and throttle from (0, 0, ``throttle``):
-        where it ends (x) and its residual accelerations (r)."""
-        x = np.array([0.0, 0.0, throttle])
-        steps = np.array([0.05, 0.05, 0.002])
-        scale = np.array([1.0, 1.0, 10.0])  # weight the pitch acceleration like the translational ones
-        r = self._residuals(altitude_m, tas_mps, x)
+        """Newton iteration from the trim vector ``x`` (alpha deg, elevator deg, throttle, beta deg,
+        aileron deg, rudder deg) on its longitudinal three, or with ``lateral`` its lateral three,
+        the other three held: where it ends and its six residual accelerations (both vectors whole)."""
+        free = LATERAL if lateral else LONGITUDINAL
+        if lateral:
+            travel = np.array([self.surface_limits_deg["aileron"], self.surface_limits_deg["rudder"]])
+            bounds = (np.array([-LATERAL_TRIM_BETA_DEG, *-travel]), np.array([LATERAL_TRIM_BETA_DEG, *travel]))
+            steps, step_limit = np.array([0.05, 0.05, 0.05]), np.array([2.0, 5.0, 5.0])
+        else:
+            bounds = _TRIM_BOUNDS
+            steps, step_limit = np.array([0.05, 0.05, 0.002]), np.array([3.0, 5.0, 0.2])
+        scale = np.array([1.0, 1.0, 10.0])  # weight the angular acceleration like the translational ones
+        x = x.copy()
+        r_all = self._residuals(altitude_m, tas_mps, x)
+        r = r_all[free]
         for _ in range(max_iterations):
-            if np.all(np.abs(r[:2]) < 1e-4) and abs(r[2]) < 1e-5:
+            if _converged(r_all, free):
                 break
             jac = np.empty((3, 3))
             for k in range(3):
-                dx = np.zeros(3)
-                dx[k] = steps[k]
-                jac[:, k] = (self._residuals(altitude_m, tas_mps, x + dx) - r) / steps[k]
+                dx = np.zeros(6)
+                dx[free.start + k] = steps[k]
+                jac[:, k] = (self._residuals(altitude_m, tas_mps, x + dx)[free] - r) / steps[k]
             delta = np.linalg.lstsq(jac * scale[:, None], -r * scale, rcond=None)[0]
-            step_limit = np.array([3.0, 5.0, 0.2])
             delta = np.clip(delta, -step_limit, step_limit)
-            x_new = np.clip(x + delta, *_TRIM_BOUNDS)
-            r_new = self._residuals(altitude_m, tas_mps, x_new)
-            if np.linalg.norm(r_new * scale) > np.linalg.norm(r * scale) and np.any(x_new != x + delta):
+            x_new = x.copy()
+            x_new[free] = np.clip(x[free] + delta, *bounds)
+            r_new_all = self._residuals(altitude_m, tas_mps, x_new)
+            r_new = r_new_all[free]
+            if np.linalg.norm(r_new * scale) > np.linalg.norm(r * scale) and np.any(x_new[free] != x[free] + delta):
                 # Pinned at a limit and not improving: the trim needs a control beyond its range.
                 break
-            x, r = x_new, r_new
-        return x, r
+            x, r, r_all = x_new, r_new, r_new_all
+        return x, r_all
 
     def _residuals(self, altitude_m, tas_mps, x) -> np.ndarray:
-        """Body accelerations (m/s², rad/s²) of steady level flight at alpha, elevator, throttle = x."""
-        alpha_deg, elevator_deg, throttle = x
-        self.place_with_controls(altitude_m, tas_mps, alpha_deg, 0.0, elevator_deg, 0.0, throttle)
+        """Body accelerations of steady level flight at the trim vector ``x`` (see ``_newton``):
+        udot, wdot (m/s²), qdot (rad/s²), then vdot (m/s²), pdot, rdot (rad/s²)."""
+        alpha_deg, elevator_deg, throttle, beta_deg, aileron_deg, rudder_deg = x
+        self.place_with_controls(altitude_m, tas_mps, alpha_deg, aileron_deg, elevator_deg, rudder_deg, throttle,
+                                 beta_deg=beta_deg)
         f = self.fdm
         return np.array([f["accelerations/udot-ft_sec2"] * FT_TO_M, f["accelerations/wdot-ft_sec2"] * FT_TO_M,
-                         f["accelerations/qdot-rad_sec2"]])
+                         f["accelerations/qdot-rad_sec2"], f["accelerations/vdot-ft_sec2"] * FT_TO_M,
+                         f["accelerations/pdot-rad_sec2"], f["accelerations/rdot-rad_sec2"]])
+
+    def _trim_both(self, altitude_m: float, tas_mps: float, throttle: float,
+                   max_iterations: int) -> tuple[np.ndarray, np.ndarray]:
+        """The longitudinal trim from (0, 0, ``throttle``); then, where the lateral accelerations
+        are not those of a trim (propeller torque), the lateral and longitudinal trims in turn.
+        A symmetric aircraft's lateral trim stays exactly zero."""
+        x, r = self._newton(altitude_m, tas_mps, np.array([0.0, 0.0, throttle, 0.0, 0.0, 0.0]), False, max_iterations)
+        for _ in range(MAX_TRIM_ROUNDS):
+            if _converged(r, LATERAL) or not _trimmed(r, LONGITUDINAL):
+                break
+            x, _ = self._newton(altitude_m, tas_mps, x, True, max_iterations)
+            x, r = self._newton(altitude_m, tas_mps, x, False, max_iterations)
+        return x, r
 
     def trim(self, altitude_m: float, airspeed_eas_mps: float, check_envelope: bool = True,
              max_iterations: int = 30) -> TrimResult:
         """Find steady, wings-level, level flight and leave the aircraft in it.
 
         Newton iteration on angle of attack, elevator and throttle with the residual body
-        accelerations computed by JSBSim (the rotors at the speed the throttle commands). The
-        lateral channel is trimmed by symmetry.
+        accelerations computed by JSBSim (the rotors at the speed the throttle commands); where
+        the lateral accelerations are not zero by symmetry (a single propeller's torque), on
+        sideslip, aileron and rudder too, wings level.
 
         Raises:
             TrimError: outside the flight envelope, or no trim with the controls inside their limits.
@@ -343,20 +394,24 @@ class Simulation:
         # EAS): away from the motor's power limit, where the throttle has no effect on thrust.
         rpm_per_tas = self._rpm_per_tas_mps or ROTOR_RPM_GUESS_PER_TAS_MPS
         throttle_guess = rpm_per_tas * tas_mps / self.fdm["fcs/rotor-speed-full-rpm"]
-        x, r = self._newton(altitude_m, tas_mps, float(np.clip(throttle_guess, 0.05, 0.9)), max_iterations)
-        restarted = not _trimmed(r)
+        x, r = self._trim_both(altitude_m, tas_mps, float(np.clip(throttle_guess, 0.05, 0.9)), max_iterations)
+        restarted = not _trimmed(r, LONGITUDINAL)
         if restarted:
             # That start suits the paper's propellers; another aircraft's may windmill there. Start
             # again at zero angle of attack from the highest throttle where the speed stops falling
             # (at lower throttles a windmilling or idling rotor's drag can balance too).
             scan = np.linspace(0.05, 0.95, 19)
-            udot = np.array([self._residuals(altitude_m, tas_mps, np.array([0.0, 0.0, t]))[0] for t in scan])
+            udot = np.array([self._residuals(altitude_m, tas_mps, np.array([0.0, 0.0, t, 0.0, 0.0, 0.0]))[0]
+                             for t in scan])
             crossings = np.flatnonzero((udot[:-1] < 0.0) & (udot[1:] >= 0.0))
             start = scan[crossings[-1] + 1] if crossings.size else scan[int(np.argmin(np.abs(udot)))]
-            x, r = self._newton(altitude_m, tas_mps, float(start), max_iterations)
-        if not _trimmed(r):
-            names = ("angle of attack", "elevator", "throttle")
-            pinned = [n for n, v, lo, hi in zip(names, x, *_TRIM_BOUNDS) if v <= lo + 1e-9 or v >= hi - 1e-9]
+            x, r = self._trim_both(altitude_m, tas_mps, float(start), max_iterations)
+        if not (_trimmed(r, LONGITUDINAL) and _trimmed(r, LATERAL)):
+            names = ("angle of attack", "elevator", "throttle", "sideslip", "aileron", "rudder")
+            travel = [self.surface_limits_deg[s] for s in ("aileron", "rudder")]
+            lows = [*_TRIM_BOUNDS[0], -LATERAL_TRIM_BETA_DEG, *(-t for t in travel)]
+            highs = [*_TRIM_BOUNDS[1], LATERAL_TRIM_BETA_DEG, *travel]
+            pinned = [n for n, v, lo, hi in zip(names, x, lows, highs) if v <= lo + 1e-9 or v >= hi - 1e-9]
             why = f"{', '.join(pinned)} at its limit" if pinned else "no convergence"
             raise TrimError(f"no trim at {altitude_m:g} m, EAS {airspeed_eas_mps:g} m/s: {why} "
                             f"(residual accelerations {np.array2string(r, precision=4)})")
@@ -369,5 +424,7 @@ class Simulation:
             alpha_deg=float(x[0]), pitch_deg=float(f["attitude/theta-deg"]), elevator_deg=float(x[1]),
             throttle=float(x[2]), rotor_rpm=float(f["propulsion/engine[0]/propeller-rpm"]),
             thrust_n=self.thrust_n(),
-            residual_accel_mps2=float(np.max(np.abs(r[:2]))), residual_ang_accel_radps2=float(abs(r[2])),
+            residual_accel_mps2=float(np.max(np.abs(r[[0, 1, 3]]))),
+            residual_ang_accel_radps2=float(np.max(np.abs(r[[2, 4, 5]]))),
+            aileron_deg=float(x[4]), rudder_deg=float(x[5]), beta_deg=float(x[3]),
         )

@@ -41,10 +41,13 @@ class TrimPoint:
     alpha_deg: float
     elevator_deg: float
     throttle: float
+    aileron_deg: float  # the lateral trim: zero for a symmetric aircraft (see ``TrimResult``)
+    rudder_deg: float
+    beta_deg: float
 
 
 class TrimTable:
-    """Bilinear interpolation of trimmed alpha, elevator and throttle (nominal coefficients).
+    """Bilinear interpolation of the trim (``TrimPoint``; nominal coefficients).
 
     Args:
         aircraft: the aircraft (``aircraft.load_aircraft``); the paper's by default.
@@ -88,7 +91,8 @@ class TrimTable:
             if self._sim is None:
                 self._sim = Simulation(self.aircraft)
             t = self._sim.trim(float(self.altitudes_m[i]), float(self.eas_mps[j]))
-            self._cells[key] = np.array([t.alpha_deg, t.elevator_deg, t.throttle])
+            self._cells[key] = np.array([t.alpha_deg, t.elevator_deg, t.throttle, t.aileron_deg, t.rudder_deg,
+                                         t.beta_deg])
         return self._cells[key]
 
     def fill(self) -> None:
