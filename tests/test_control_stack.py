@@ -274,9 +274,12 @@ def test_stack_settings_round_trip_and_default_to_the_network_alone():
     for settings in (StackSettings(), StackSettings(8, 20.0, 2.0), StackSettings(1, 0.5, 0.1), StackSettings(64, 100.0)):
         assert StackSettings.from_dict(settings.to_dict()) == settings
     assert StackSettings(8, 20.0, 2.0).to_dict() == {"window_steps": 8, "goal_trim_time_constant_s": 20.0,
-                                                     "surface_trim_gain": 2.0, "error_integrals": False}
+                                                     "surface_trim_gain": 2.0, "error_integrals": False,
+                                                     "residual_on": "", "residual_authority": 0.0}
     with_integrals = StackSettings(8, error_integrals=True)
     assert StackSettings.from_dict(with_integrals.to_dict()) == with_integrals
+    residual = StackSettings(8, residual_on="lqi_tuned", residual_authority=0.25)
+    assert StackSettings.from_dict(residual.to_dict()) == residual and residual.network_alone() == residual
     assert (StackSettings().observation_size, with_integrals.observation_size) == (OBS_SIZE, OBS_SIZE + 3)
     # The network alone keeps its inputs and loses the classical stages.
     assert StackSettings(4, 20.0, 2.0, True).network_alone() == StackSettings(4, error_integrals=True)

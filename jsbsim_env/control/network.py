@@ -8,6 +8,8 @@ the critics and the sampling around it (``training.networks``); flight takes tan
 
 from __future__ import annotations
 
+import math
+
 import torch
 from tensordict.nn import NormalParamExtractor
 from torch import nn
@@ -87,3 +89,14 @@ class ActorNet(nn.Module):
 
     def forward(self, window: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         return self.params(self.head(self.encoder(window)))
+
+    @torch.no_grad()
+    def start_at_zero(self, std: float) -> None:
+        """Make the mean action exactly zero for every input and the pre-tanh standard deviation
+        ``std``: a residual's network then starts by flying its base controller, exploring about it."""
+        last = self.head[-1]
+        half = last.out_features // 2
+        last.weight.zero_()
+        last.bias[:half] = 0.0
+        # The scale mapping is softplus(x + b) with softplus(b) = 1.
+        last.bias[half:] = math.log(math.expm1(std)) - math.log(math.expm1(1.0))

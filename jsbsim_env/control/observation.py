@@ -27,7 +27,9 @@ the action just taken and a one-step temporal-difference critic cannot learn wha
 A controller that reads error integrals (``StackSettings.error_integrals``,
 ``jsbsim_env.control.integrals``) has three more values, ``INTEGRAL_NAMES``, each in deg s over
 ``INTEGRAL_SCALE_DEG_S``, between the last action and the goals (which close every observation):
-``observation_size(error_integrals=True)`` = 23.
+``observation_size(error_integrals=True)`` = 23. A residual controller
+(``jsbsim_env.control.residual``) reads its base controller's command (as an action) and
+integrators, ``RESIDUAL_NAMES``, in the same place: ``observation_size(residual=True)`` = 28.
 
 The action (``ACTION_SIZE`` = 4, each in [-1, 1]) maps linearly to each surface's travel and the
 throttle 0..1 (``action_scale``): on the paper's aircraft its Table 2, aileron and elevator
@@ -54,11 +56,14 @@ OBS_SIZE = N_STATE + ACTION_SIZE + len(GOAL_NAMES)
 INTEGRAL_NAMES = ("roll_error_integral_deg_s", "pitch_error_integral_deg_s", "sideslip_error_integral_deg_s")
 INTEGRAL_SCALE_DEG_S = 5.0  # a steady error of 0.25 deg reads 1 after 20 s
 INTEGRAL_COLUMNS = slice(N_STATE + ACTION_SIZE, N_STATE + ACTION_SIZE + len(INTEGRAL_NAMES))
+RESIDUAL_NAMES = (*(f"base_{a}" for a in ACTION_NAMES), "base_roll_integral", "base_pitch_integral",
+                  "base_sideslip_integral", "base_eas_integral")
 
 
-def observation_size(error_integrals: bool = False) -> int:
-    """Values in one observation: ``OBS_SIZE``, and the error integrals where the controller reads them."""
-    return OBS_SIZE + (len(INTEGRAL_NAMES) if error_integrals else 0)
+def observation_size(error_integrals: bool = False, residual: bool = False) -> int:
+    """Values in one observation: ``OBS_SIZE``, and the error integrals and the residual's base
+    controller where the controller reads them."""
+    return OBS_SIZE + (len(INTEGRAL_NAMES) if error_integrals else 0) + (len(RESIDUAL_NAMES) if residual else 0)
 
 
 _DEG = math.degrees(1.0)
@@ -206,6 +211,7 @@ __all__ = [
     "OBS_OFFSET",
     "OBS_SCALE",
     "OBS_SIZE",
+    "RESIDUAL_NAMES",
     "THROTTLE_ACTION_SCALE",
     "ActionError",
     "ObservationEntry",

@@ -6,9 +6,12 @@
                                                 |
                     [error integrals: integrate]
                                                 |
+                    [residual: the base controller's step, its command and integrators]
+                                                |
                     [observation: scale, with the last action] --> [window: last N] --> network
                                                                                           |
     command <-- [surface trim: add trims, clip] <-- [action -> command] <-- action <------+
+                (with a residual: base command + authority x action, clipped)
 
 ``StackSettings`` holds the parameters, as a policy file records them; ``ControlStack`` runs the
 stages around a network for one aircraft (``jsbsim_env.control.policy.PolicyRuntime`` adds the
@@ -38,6 +41,7 @@ from jsbsim_env.control.observation import (
     scale_row,
 )
 from jsbsim_env.control.pid import GainSchedule
+from jsbsim_env.control.residual import ResidualStage, check_residual
 from jsbsim_env.control.trims import (
     GoalTrim,
     SurfaceTrim,
@@ -50,11 +54,12 @@ _GOALS_START = GOAL_COLUMNS.start  # negative: the goals close the row
 
 def observation_row(state: list[float], last_action: list[float], goal: list[float],
                     surface_trim: SurfaceTrim | None = None, noise: list[float] | None = None,
-                    integrals: ErrorIntegrals | None = None) -> list[float]:
+                    integrals: ErrorIntegrals | None = None, residual: list[float] | None = None) -> list[float]:
     """The network's observation for one step, as a list: a state (``core.STATE_NAMES``), the last
     action and the goal, with the surface trim's present trims taken off the observed surfaces
     (the policy sees the part of each surface it commanded), scaled; with ``integrals``, their
-    values go between the last action and the goal. Flight gives the measured state; the training
+    values go between the last action and the goal, and after them ``residual``, the residual
+    stage's inputs (``ResidualStage.observe``). Flight gives the measured state; the training
     task gives the true state and the sensor noise to add (``noise``, zero on the action and the
     goal)."""
     raw = state + last_action + goal
@@ -63,6 +68,8 @@ def observation_row(state: list[float], last_action: list[float], goal: list[flo
     row = scale_row(raw, noise)
     if integrals is not None:
         row[_GOALS_START:_GOALS_START] = [v / INTEGRAL_SCALE_DEG_S for v in integrals.integral_deg_s]
+    if residual is not None:
+        row[_GOALS_START:_GOALS_START] = residual
     return row
 
 
@@ -74,12 +81,17 @@ class StackSettings:
     ``goal_trim_time_constant_s``: the goal trim's time constant; 0: no goal trim.
     ``surface_trim_gain``: the surface trim's gains as a fraction of the PID's integral gains; 0: no surface trim.
     ``error_integrals``: whether the network reads the roll, pitch and sideslip error integrals.
+    ``residual_on``: the classical controller the network corrects (``jsbsim_env.control.residual``;
+    empty: none, the network flies alone); ``residual_authority`` the correction's share of each
+    surface's travel.
     """
 
     window_steps: int = 8
     goal_trim_time_constant_s: float = 0.0
     surface_trim_gain: float = 0.0
     error_integrals: bool = False
+    residual_on: str = ""
+    residual_authority: float = 0.0
 
     def __post_init__(self):
         if isinstance(self.window_steps, bool) or not isinstance(self.window_steps, int) \
@@ -88,14 +100,16 @@ class StackSettings:
         check_goal_trim_time_constant(self.goal_trim_time_constant_s, "goal_trim_time_constant_s")
         check_surface_trim_gain(self.surface_trim_gain, "surface_trim_gain")
         check_error_integrals(self.error_integrals)
+        check_residual(self.residual_on, self.residual_authority)
 
     @property
     def observation_size(self) -> int:
-        return observation_size(self.error_integrals)
+        return observation_size(self.error_integrals, bool(self.residual_on))
 
     def network_alone(self) -> StackSettings:
         """These settings without the classical stages (goal trim, surface trim): the network with
-        its inputs (window, error integrals) as they are."""
+        its inputs (window, error integrals) as they are. A residual's base controller stays: its
+        network has no command of its own."""
         return replace(self, goal_trim_time_constant_s=0.0, surface_trim_gain=0.0)
 
     def to_dict(self) -> dict:
@@ -108,13 +122,13 @@ class StackSettings:
         if unknown:
             raise ValueError(f"unknown control-stack settings {sorted(unknown)}")
         numbers = {}
-        for name in ("goal_trim_time_constant_s", "surface_trim_gain"):
+        for name in ("goal_trim_time_constant_s", "surface_trim_gain", "residual_authority"):
             value = data.get(name, 0.0)
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 raise ValueError(f"{name} must be a number, got {value!r}")  # noqa: TRY004 - a bad setting, by name
             numbers[name] = float(value)
         return cls(window_steps=data.get("window_steps", 8), error_integrals=data.get("error_integrals", False),
-                   **numbers)
+                   residual_on=data.get("residual_on", ""), **numbers)
 
 
 class ControlStack:
@@ -131,8 +145,10 @@ class ControlStack:
                                          flown.surface_limits_deg[:2])
                              if s.surface_trim_gain else None)
         self.integrals = ErrorIntegrals() if s.error_integrals else None
+        self.residual = ResidualStage(s.residual_on, s.residual_authority, flown) if s.residual_on else None
         self.window = ObservationWindow(s.window_steps, s.observation_size)
-        self.needs_interval = any(stage is not None for stage in (self.goal_trim, self.surface_trim, self.integrals))
+        self.needs_interval = any(stage is not None
+                                  for stage in (self.goal_trim, self.surface_trim, self.integrals, self.residual))
         self.last_action: list[float] | None = None  # fed back into the next observation
         self._step: tuple[list[float], list[float], float | None] | None = None  # this step's (measurement, goal, dt_s)
 
@@ -141,7 +157,7 @@ class ControlStack:
         self.last_action = None
         self._step = None
         self.window.reset()
-        for stage in (self.goal_trim, self.surface_trim, self.integrals):
+        for stage in (self.goal_trim, self.surface_trim, self.integrals, self.residual):
             if stage is not None:
                 stage.reset()
 
@@ -152,14 +168,17 @@ class ControlStack:
         self._step = (measurement, asked, dt_s)
         given = self.goal_trim.goal(asked) if self.goal_trim is not None else asked
         first = self.last_action is None
-        if first:
-            self.last_action = initial_last_action(measurement, self._action_scale)
+        if first:  # a residual's correction starts at zero; a network alone, at the surfaces' positions
+            self.last_action = [0.0] * len(self._action_scale) if self.residual is not None \
+                else initial_last_action(measurement, self._action_scale)
         if not first:  # the integrators start from zero with the flight, as in training
             if self.surface_trim is not None:
                 self.surface_trim.integrate(dt_s, measurement, given)
             if self.integrals is not None:
                 self.integrals.integrate(dt_s, measurement, given)
-        row = observation_row(measurement, self.last_action, given, self.surface_trim, integrals=self.integrals)
+        base = self.residual.observe(dt_s, measurement, given) if self.residual is not None else None
+        row = observation_row(measurement, self.last_action, given, self.surface_trim, integrals=self.integrals,
+                              residual=base)
         return self.window.push(np.array(row, dtype=np.float32))
 
     def command(self, action: list[float]) -> list[float]:
@@ -171,7 +190,10 @@ class ControlStack:
         measurement, asked, dt_s = self._step
         self._step = None
         self.last_action = action
-        command = action_list_to_command(action, self._action_scale)  # within the travel for actions in [-1, 1]
+        if self.residual is not None:
+            command = self.residual.command(action)
+        else:
+            command = action_list_to_command(action, self._action_scale)  # within the travel for actions in [-1, 1]
         if self.surface_trim is not None:
             command = self.surface_trim.apply(command)  # clips the trimmed surfaces to their travel
         if self.goal_trim is not None:

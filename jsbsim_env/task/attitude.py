@@ -19,7 +19,9 @@ With ``TaskConfig.surface_trim_gain`` > 0, the flown controller's surface trim
 every command and takes them off the observed surface positions, as the flight runtime does. With
 ``TaskConfig.goal_trim_time_constant_s`` > 0, its goal trim (``GoalTrim``) moves the goal the
 policy observes, step for step as ``jsbsim_env.control.stack.ControlStack`` does in flight; the
-reward is always against the goal asked for.
+reward is always against the goal asked for. With ``TaskConfig.residual_on``, a classical
+controller flies and the action is its bounded correction (``jsbsim_env.control.residual``, the
+same stage as in flight), which the policy observes beside the controller's command and integrators.
 
 ``AttitudeTaskBatch.privileged`` gives, per aircraft, what the aircraft cannot measure
 (``PRIVILEGED_NAMES``): the true state, the turbulence, the episode's coefficient scales, its delay
@@ -51,6 +53,7 @@ from jsbsim_env.control.observation import (
     scale_row,
 )
 from jsbsim_env.control.pid import SURFACE_INTEGRATOR_LIMIT_DEG, GainSchedule, PIDAttitudeController
+from jsbsim_env.control.residual import ResidualStage, check_residual
 from jsbsim_env.control.stack import observation_row
 from jsbsim_env.control.trims import GoalTrim, SurfaceTrim, check_goal_trim_time_constant, check_surface_trim_gain
 from jsbsim_env.sim.core import (
@@ -144,6 +147,9 @@ class TaskConfig:
     trim with that time constant; 0: none, as the paper.
     ``error_integrals`` gives the policy the control stack's roll, pitch and sideslip error
     integrals in its observation (``jsbsim_env.control.integrals``); False: none, as the paper.
+    ``residual_on`` names the classical controller whose command the policy corrects by up to
+    ``residual_authority`` of each surface's travel (``jsbsim_env.control.residual``); empty: none,
+    the policy flies alone, as the paper.
     ``sideslip_weight``, ``roll_weight`` and ``pitch_weight`` multiply Eq. 22's sideslip, roll and
     pitch penalties and their caps (1: the paper's reward).
     ``penalty_tail`` keeps that share of each penalty's slope beyond its cap (0: the paper's reward),
@@ -159,6 +165,8 @@ class TaskConfig:
     surface_trim_gain: float = 0.0  # fraction of the PID's integral gains; 0: none, as the paper
     goal_trim_time_constant_s: float = 0.0  # 0: none, as the paper
     error_integrals: bool = False  # False: none, as the paper
+    residual_on: str = ""  # empty: none, as the paper
+    residual_authority: float = 0.0
     sideslip_weight: float = 1.0
     roll_weight: float = 1.0
     pitch_weight: float = 1.0
@@ -169,6 +177,7 @@ class TaskConfig:
         check_surface_trim_gain(self.surface_trim_gain, "surface_trim_gain")
         check_goal_trim_time_constant(self.goal_trim_time_constant_s, "goal_trim_time_constant_s")
         check_error_integrals(self.error_integrals)
+        check_residual(self.residual_on, self.residual_authority)
         low, high = self.goal_hold_s
         if not 0.0 < low <= high < math.inf:  # NaN fails too
             raise ValueError(f"goal_hold_s must be a finite range (low, high) with 0 < low <= high, got {(low, high)}")
@@ -182,7 +191,7 @@ class TaskConfig:
 
     @property
     def observation_size(self) -> int:
-        return observation_size(self.error_integrals)
+        return observation_size(self.error_integrals, bool(self.residual_on))
 
 
 _NO_EXTRA_NOISE = [0.0] * (ACTION_SIZE + len(GOAL_NAMES))  # the last action and the goals are known exactly
@@ -233,6 +242,9 @@ class AttitudeTaskBatch:
         tc = self.config.goal_trim_time_constant_s
         self._goal_trims = [GoalTrim(tc) for _ in range(n)] if tc > 0.0 else None
         self._integrals = [ErrorIntegrals() for _ in range(n)] if self.config.error_integrals else None
+        base, authority = self.config.residual_on, self.config.residual_authority
+        self._residuals = [ResidualStage(base, authority, self.aircraft) for _ in range(n)] if base else None
+        self._residual_inputs: list[list[float] | None] = [None] * n  # each step's, as the policy reads them
         self._speed_holds = ([PIDAttitudeController(schedule, aircraft=self.aircraft) for _ in range(n)]
                              if self._external_share > 0.0 else None)
         self._sideslip_weight, self._roll_weight = self.config.sideslip_weight, self.config.roll_weight
@@ -256,7 +268,9 @@ class AttitudeTaskBatch:
         core.reset(seed, **overrides)
         self._not_started.discard(i)
         self.states[i] = core.last_true_state = core.true_state()
-        self.last_actions[i] = initial_last_action(self.states[i], self.action_scale)
+        # A residual's correction starts at zero; a policy alone, at the surfaces' positions.
+        self.last_actions[i] = [0.0] * ACTION_SIZE if self._residuals is not None \
+            else initial_last_action(self.states[i], self.action_scale)
         self.interval_s[i] = core.setup.control_interval_s
         # Goals draw from their own stream of the episode's seed.
         self._goal_rngs[i] = grng = np.random.default_rng(core.rng.integers(2**63))
@@ -276,6 +290,9 @@ class AttitudeTaskBatch:
             self._goal_trims[i].reset()
         if self._integrals is not None:
             self._integrals[i].reset()
+        if self._residuals is not None:
+            self._residuals[i].reset()
+            self._observe_residual(i)
         return np.array(self._observation(i), dtype=np.float32)
 
     # ------------------------------------------------------------------ stepping
@@ -304,7 +321,10 @@ class AttitudeTaskBatch:
         self.steps += 1
         for i, (core, a) in enumerate(zip(self.cores, rows)):
             a = self.last_actions[i] = [min(max(x, -1.0), 1.0) for x in a]
-            command = action_list_to_command(a, self._action_scale)
+            # A residual's command is its base's list, which the base holds as its delayed command:
+            # the speed hold's throttle below reaches it too.
+            command = self._residuals[i].command(a) if self._residuals is not None \
+                else action_list_to_command(a, self._action_scale)
             if self._trims is not None:
                 command = self._trims[i].apply(command)
             if self._goal_trims is not None:
@@ -343,6 +363,8 @@ class AttitudeTaskBatch:
                     self._trims[i].integrate(core.setup.control_interval_s, measured, given)
                 if self._integrals is not None:
                     self._integrals[i].integrate(core.setup.control_interval_s, measured, given)
+            if self._residuals is not None and not code:
+                self._observe_residual(i)
             obs.append(self._observation(i))
         codes_a = np.array(codes)
         terminated = codes_a > 0
@@ -379,16 +401,27 @@ class AttitudeTaskBatch:
         goal = self._goal_lists[i]
         return self._goal_trims[i].goal(goal) if self._goal_trims is not None else goal
 
-    def _observation(self, i: int) -> list[float]:
-        """Scaled network observation of aircraft ``i`` (measured state, last action, goal given), as a
-        list: the control stack's ``observation_row`` on the true state and its sensor noise."""
+    def _observed_goal(self, i: int) -> list[float]:
+        """The goal aircraft ``i``'s policy (and a residual's base controller) reads."""
         goal = self._given_goal(i)
         if self.external_throttle[i]:  # speed-free: the EAS goal is the measured EAS
             goal = [goal[0], goal[1], self.states[i][EAS_INDEX] + self.noise[i][EAS_INDEX]]
+        return goal
+
+    def _observe_residual(self, i: int) -> None:
+        """The residual's base controller's step on the measurement the policy is about to read."""
+        measured = [x + e for x, e in zip(self.states[i], self.noise[i])]
+        self._residual_inputs[i] = self._residuals[i].observe(self.cores[i].setup.control_interval_s, measured,
+                                                              self._observed_goal(i))
+
+    def _observation(self, i: int) -> list[float]:
+        """Scaled network observation of aircraft ``i`` (measured state, last action, goal given), as a
+        list: the control stack's ``observation_row`` on the true state and its sensor noise."""
         trim = self._trims[i] if self._trims is not None else None
         integrals = self._integrals[i] if self._integrals is not None else None
-        obs = self._obs_lists[i] = observation_row(self.states[i], self.last_actions[i], goal, trim,
-                                                   self.noise[i] + _NO_EXTRA_NOISE, integrals)
+        residual = self._residual_inputs[i] if self._residuals is not None else None
+        obs = self._obs_lists[i] = observation_row(self.states[i], self.last_actions[i], self._observed_goal(i), trim,
+                                                   self.noise[i] + _NO_EXTRA_NOISE, integrals, residual)
         return obs
 
     def privileged(self) -> np.ndarray:

@@ -8,6 +8,8 @@ version it was made with.
 | ``SolarUAVAttitude-v1`` | surface trim at 0.5 x the PID's integral gains; reward with the roll and pitch penalties x2 and sideslip x6 (one cap for all three) and a tenth of each slope kept beyond its cap; delays 40-120 ms; 30 % of episodes with the throttle on a speed hold | goal trim (20 s) and surface trim at 2 x the PID's integral gains |
 | ``SolarUAVAttitude-v2`` | v1's, with its flight stack around the network in every episode: goal trim (20 s) and surface trim at 2 x | the same: trained as flown |
 | ``SolarUAVAttitude-v3`` | v1's without its surface trim; the network reads its roll, pitch and sideslip error integrals (``jsbsim_env.control.integrals``) | the error integrals and nothing else: trained as flown, integral action learned |
+| ``SolarUAVAttitude-v4`` | v1's without its surface trim; the aircraft's designed LQI flies and the network adds a correction of up to a quarter of each surface's travel, reading the LQI's command and integrators (``jsbsim_env.control.residual``) | the same residual on the same LQI: trained as flown |
+| ``SolarUAVAttitude-v5`` | v4's on the aircraft's tuned LQI (``lqi_tuned``; ``scripts/tune_classical.py`` writes it for a built aircraft) | the same: trained as flown |
 
 Both train in the paper's disturbances otherwise (noise, random interval, coefficient spread,
 0.5 m/s turbulence) and are evaluated in the paper's.
@@ -21,6 +23,11 @@ from jsbsim_env.control.stack import StackSettings
 from jsbsim_env.sim.core import CoreConfig
 from jsbsim_env.task.attitude import TaskConfig
 
+# The settings of the stages around the network, which the task and the flight stack both hold.
+_STAGES = ("surface_trim_gain", "goal_trim_time_constant_s", "error_integrals", "residual_on", "residual_authority")
+# The residual versions' correction: a quarter of each surface's travel (and of half the throttle range).
+RESIDUAL_AUTHORITY = 0.25
+
 
 @dataclass(frozen=True)
 class TaskVersion:
@@ -33,16 +40,12 @@ class TaskVersion:
     @property
     def trained_as_flown(self) -> bool:
         """Whether the training episodes run every stage of the flight stack with its settings."""
-        return (self.task.surface_trim_gain == self.flight_stack.surface_trim_gain
-                and self.task.goal_trim_time_constant_s == self.flight_stack.goal_trim_time_constant_s
-                and self.task.error_integrals == self.flight_stack.error_integrals)
+        return all(getattr(self.task, name) == getattr(self.flight_stack, name) for name in _STAGES)
 
 
 def trained_as_flown(env_id: str, task: TaskConfig, stack: StackSettings) -> TaskVersion:
-    """A version whose training episodes run ``stack``'s trims with its settings around the network."""
-    return TaskVersion(env_id, replace(task, surface_trim_gain=stack.surface_trim_gain,
-                                       goal_trim_time_constant_s=stack.goal_trim_time_constant_s,
-                                       error_integrals=stack.error_integrals), stack)
+    """A version whose training episodes run ``stack``'s stages with its settings around the network."""
+    return TaskVersion(env_id, replace(task, **{name: getattr(stack, name) for name in _STAGES}), stack)
 
 
 V0 = TaskVersion("SolarUAVAttitude-v0", TaskConfig(), StackSettings())
@@ -55,7 +58,11 @@ V1 = TaskVersion(
 )
 V2 = trained_as_flown("SolarUAVAttitude-v2", V1.task, V1.flight_stack)
 V3 = trained_as_flown("SolarUAVAttitude-v3", V1.task, StackSettings(window_steps=8, error_integrals=True))
-VERSIONS = {v.env_id: v for v in (V0, V1, V2, V3)}
+V4 = trained_as_flown("SolarUAVAttitude-v4", V1.task,
+                      StackSettings(window_steps=8, residual_on="lqi", residual_authority=RESIDUAL_AUTHORITY))
+V5 = trained_as_flown("SolarUAVAttitude-v5", V1.task,
+                      StackSettings(window_steps=8, residual_on="lqi_tuned", residual_authority=RESIDUAL_AUTHORITY))
+VERSIONS = {v.env_id: v for v in (V0, V1, V2, V3, V4, V5)}
 LATEST = V1.env_id
 
 
