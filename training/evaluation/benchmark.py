@@ -78,7 +78,9 @@ STEP_METRICS = {"rise_time_s": LOWER_IS_BETTER, "overshoot_pct": LOWER_IS_BETTER
 # The corner's path is L1's (the cross-track error at the leg change is the turn radius, the same for
 # every controller): scored is how the attitude follows the turn's demands.
 CORNER_METRICS = {"rmse_roll_deg": LOWER_IS_BETTER, "rmse_pitch_deg": LOWER_IS_BETTER, "rmse_beta_deg": LOWER_IS_BETTER}
-CALM_METRICS = {"mae_roll_deg": LOWER_IS_BETTER, "mae_pitch_deg": LOWER_IS_BETTER}
+# Calm air: the steady error, and the surfaces' activity (Sm of each command; lower is smoother).
+CALM_METRICS = {"mae_roll_deg": LOWER_IS_BETTER, "mae_pitch_deg": LOWER_IS_BETTER,
+                **{f"smoothness_{s}": LOWER_IS_BETTER for s in ("aileron", "elevator", "rudder")}}
 # The sweeps' axes at one stressed value each (the training setting: delay 80-120 ms, servo 100 deg/s,
 # Table 3 noise, Table 4 spread). At 10 deg/s the servo limit shows (the PID's roll RMSE 0.164 ->
 # 0.167 deg on realisation 0); at 5 deg/s the PID ends that flight early (pitch limit).
