@@ -167,4 +167,4 @@ def render(summary: dict, controllers: list[str], fmt) -> list[str]:
     return lines
 
 
-__all__ = ["ACTIVITY_FACTOR", "BETTER_CELLS", "CALM_BOUND_DEG", "CLASSICAL", "TURBULENCE_BETTER_SHARE", "CRITERIA", "best_classical", "judge", "rank", "render", "score", "sides"]
+__all__ = ["ACTIVITY_FACTOR", "BETTER_CELLS", "CALM_BOUND_DEG", "CLASSICAL", "CRITERIA", "TURBULENCE_BETTER_SHARE", "best_classical", "judge", "rank", "render", "score", "sides"]
