@@ -10,7 +10,10 @@ A run is never started over another: a folder that holds a checkpoint or a best 
 (resume it, or give another --run-name). A folder whose run stopped before its first checkpoint
 holds nothing to resume, and the command that started it starts it afresh, replacing its logs.
 Refusals are one line on stderr with exit code 2; a run folder that cannot be written during
-training ends with one line naming it and its last checkpoint, exit code 1.
+training, or training that diverges (a loss or weight NaN or infinite), ends with one line naming
+its last checkpoint, which is kept, and how to go on, exit code 1. A resumed run may change its
+length (--collector.total_frames) and learning rate (--optim.lr); another changed setting is
+refused, naming it.
 """
 
 from __future__ import annotations
@@ -71,7 +74,14 @@ def main(argv: list[str] | None = None) -> int:
     tune_allocator()
     from training.checkpoint import CheckpointError
     from training.provenance import append_session
-    from training.trainer import RunExistsError, RunFolderError, RunLockedError, Trainer, TrainingInterrupted
+    from training.trainer import (
+        RunExistsError,
+        RunFolderError,
+        RunLockedError,
+        Trainer,
+        TrainingDiverged,
+        TrainingInterrupted,
+    )
 
     try:
         if args.resume:
@@ -108,7 +118,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"train_torchrl: stopped by {stop}; go on with: python scripts/train_torchrl.py --resume {run_dir}",
               file=sys.stderr)
         return _SIGNAL_EXIT.get(stop.signal_name, 1)
-    except RunFolderError as err:
+    except (RunFolderError, TrainingDiverged) as err:
         print(f"train_torchrl: {err}", file=sys.stderr)
         return 1
     if args.json:

@@ -33,13 +33,13 @@ from torchrl.data import LazyTensorStorage, TensorDictReplayBuffer
 from torchrl.envs.utils import ExplorationType, set_exploration_type, step_mdp
 
 from aircraft import load_aircraft
-from jsbsim_env.control.checked_io import DamagedFileError, checked_load
+from jsbsim_env.control.checked_io import DamagedFileError, checked_load, non_finite_entries
 from jsbsim_env.sim.core import CoreConfig
 from jsbsim_env.task.attitude import PRIVILEGED_SIZE, TaskConfig, goal_range
 from jsbsim_env.task.torchrl_env import make_env
 from jsbsim_env.task.versions import task_version
 from training.checkpoint import CheckpointError, atomic_save, config_fingerprint, load_checkpoint, save_checkpoint
-from training.config import TrainConfig, check_device
+from training.config import OptimSettings, TrainConfig, check_device
 from training.networks import make_actor, make_critic
 from training.progress_log import read_progress
 from training.relabel import relabel_goals
@@ -82,16 +82,44 @@ def _short(value) -> str:
 RESIDUAL_START_STD = 0.3
 
 
-def resume_fingerprint(config: TrainConfig) -> str:
-    """Settings that must be the same to resume: everything but logging, device, threads and length."""
-    data = config.to_dict()
-    data["collector"] = {k: v for k, v in data["collector"].items() if k != "total_frames"}
-    # The aircraft by its model, not by the path it was given as; the paper's as runs from before the
-    # setting recorded it (none), so that they resume.
-    flown = load_aircraft(data["env"].pop("aircraft"))
+# Settings a resumed run may change: its length, its learning rate (after a divergence, say), and
+# (top-level groups and settings) its logging, device and threads.
+RESUME_MAY_CHANGE = ("collector.total_frames", "optim.lr")
+RESUME_MAY_CHANGE_GROUPS = ("log", "device", "threads")
+
+
+def resume_settings(config: TrainConfig) -> dict:
+    """The settings that must be the same to resume (``group.name``: value): everything but
+    ``RESUME_MAY_CHANGE`` and ``RESUME_MAY_CHANGE_GROUPS``. The aircraft by its model
+    (``env.aircraft_model``), not by the path it was given as; the paper's as runs from before the
+    setting recorded it (none), so that they resume."""
+    flat = {}
+    for group, value in config.to_dict().items():
+        if group in RESUME_MAY_CHANGE_GROUPS:
+            continue
+        if isinstance(value, dict):
+            flat.update({f"{group}.{k}": v for k, v in value.items()})
+        else:
+            flat[group] = value
+    for name in RESUME_MAY_CHANGE:
+        flat.pop(name, None)
+    flown = load_aircraft(flat.pop("env.aircraft"))
     if not flown.papers:
-        data["env"]["aircraft_model"] = flown.fingerprint
-    return config_fingerprint(data, ignore=("log", "device", "threads"))
+        flat["env.aircraft_model"] = flown.fingerprint
+    return flat
+
+
+def resume_fingerprint(config: TrainConfig) -> str:
+    """A hash of ``resume_settings``."""
+    return config_fingerprint(resume_settings(config))
+
+
+def changed_settings(saved: dict, current: dict) -> list[str]:
+    """``group.name (X in the checkpoint, Y now)`` for each setting of ``resume_settings`` that differs."""
+    names = sorted(set(saved) | set(current))
+    missing = "(none)"
+    return [f"{n} ({saved.get(n, missing)!r} in the checkpoint, {current.get(n, missing)!r} now)"
+            for n in names if saved.get(n, missing) != current.get(n, missing)]
 
 
 @dataclass
@@ -172,6 +200,7 @@ class Trainer:
         self.fingerprint = resume_fingerprint(c)
         if resume:
             self._load()
+            self._record_config()
         else:
             with self._writing():
                 (self.run_dir / "config.json").write_text(c.to_json())
@@ -267,7 +296,9 @@ class Trainer:
         return self.run_dir / "checkpoint.pt"
 
     def save(self) -> None:
-        """Write everything a resumed run needs, atomically (``RunFolderError`` where it cannot)."""
+        """Write everything a resumed run needs, atomically (``RunFolderError`` where it cannot);
+        ``TrainingDiverged``, writing nothing, where a weight or an optimiser's moment is not finite."""
+        self.check_finite()
         with self._writing():
             self._save()
         self._checkpoint_frames = self.counters.frames
@@ -283,19 +314,37 @@ class Trainer:
             "env_episodes": self.env.base_env._episodes.copy(),
         }, self.fingerprint)
 
+    def _record_config(self) -> None:
+        """A resumed run's ``config.json`` says what it goes on with (a new length or learning rate),
+        so that the next ``--resume`` goes on with it too; rewritten atomically, only where it changed."""
+        path = self.run_dir / "config.json"
+        text = self.config.to_json()
+        with contextlib.suppress(OSError, UnicodeDecodeError):
+            if path.read_text() == text:
+                return
+        with self._writing():
+            tmp = path.with_name(".config.json.tmp")
+            tmp.write_text(text)
+            tmp.replace(path)
+
     def _load(self) -> None:
         data = load_checkpoint(self.checkpoint_path, required=("config", "sac", "optimizer", "buffer", "counters"))
         # Compare the run's settings as this version reads them; a run of another version of the
         # package (settings or a task version this one does not have) is refused, naming them.
         try:
-            saved = resume_fingerprint(TrainConfig.from_dict(data["config"]))
+            saved = resume_settings(TrainConfig.from_dict(data["config"]))
         except (TypeError, ValueError) as err:
             raise CheckpointError(f"checkpoint {self.checkpoint_path} holds unreadable settings: {err}") from err
-        if saved != self.fingerprint:
-            raise CheckpointError(f"checkpoint {self.checkpoint_path} was written by a run with other settings "
-                                  f"(fingerprint {saved}, this run {self.fingerprint})")
+        changed = changed_settings(saved, resume_settings(self.config))
+        if changed:
+            may = ", ".join(RESUME_MAY_CHANGE + RESUME_MAY_CHANGE_GROUPS[:1]) + ", device and threads"
+            raise CheckpointError(f"checkpoint {self.checkpoint_path} was written by a run with other settings: "
+                                  f"{'; '.join(changed)}; resume with its settings (only {may} may change), or "
+                                  "start a new run under another --run-name")
         self.sac.load_state_dict(data["sac"])
         self.sac.optimizer.load_state_dict(data["optimizer"])
+        for group in self.sac.optimizer.param_groups:  # a resumed run may lower its learning rate
+            group["lr"] = self.config.optim.lr
         restore_buffer(self.buffer, data["buffer"])
         self.counters = Counters(**data["counters"])
         torch.set_rng_state(data["torch_rng"])
@@ -328,7 +377,7 @@ class Trainer:
         if not path.exists():
             return
         try:
-            readable, torn = read_progress(path)
+            readable, torn = read_progress(path, CSV_FIELDS)
         except OSError as err:
             raise CheckpointError(f"cannot read the progress log {path} ({_reason(err)})") from None
         rows = [row for row in readable if int(row["frames"]) <= self.counters.frames]
@@ -351,6 +400,16 @@ class Trainer:
         with self._writing():
             self._save_policy(path, evaluation)
 
+    def check_finite(self) -> None:
+        """``TrainingDiverged`` naming the first weights or optimiser state that are NaN or infinite."""
+        bad = non_finite_entries({"weights": self.sac.state_dict(), "optimizer": self.sac.optimizer.state_dict()})
+        if bad:
+            raise self._diverged(bad[0] + (f" (and {len(bad) - 1} more)" if len(bad) > 1 else ""))
+
+    def _diverged(self, what: str) -> TrainingDiverged:
+        return TrainingDiverged(what, self.counters.frames, self.counters.updates, self._checkpoint_frames,
+                                self.run_dir, self.config.optim.lr)
+
     def _save_policy(self, path: Path, evaluation: dict) -> None:
         atomic_save({
             "actor": self.actor.state_dict(),
@@ -372,9 +431,13 @@ class Trainer:
                               sideslip_weight=task.sideslip_weight, penalty_tail=task.penalty_tail,
                               roll_weight=task.roll_weight, pitch_weight=task.pitch_weight,
                               goal_range=self.goal_range)
-        for key, value in self.sac.update(batch).items():
-            self._losses.setdefault(key, []).append(value)
+        losses = self.sac.update(batch)
         self.counters.updates += 1
+        bad = [key for key, value in losses.items() if not math.isfinite(value)]
+        if bad:  # the weights are no longer to be trusted: nothing of them is written
+            raise self._diverged(", ".join(bad))
+        for key, value in losses.items():
+            self._losses.setdefault(key, []).append(value)
 
     def _record_episodes(self, data: TensorDictBase) -> None:
         done = data["next", "done"].squeeze(-1)
@@ -435,6 +498,7 @@ class Trainer:
                         while update_debt >= 1.0:
                             self._update(self.buffer.sample())
                             update_debt -= 1.0
+                        self.check_finite()  # before the collector flies the weights
                     collector.update_policy_weights_()
                     self.counters.wall_s = wall_before + time.perf_counter() - session_start
                     if bar is not None:
@@ -632,6 +696,23 @@ def evaluate_policy(policy, task_config: TaskConfig, episodes: int = 8, max_step
     env.close()
     return {"return_norm": float(total.mean()) / max_steps, "length": float(length.mean()),
             "early_ends": int(early.sum()), "episodes": episodes}
+
+
+class TrainingDiverged(RuntimeError):
+    """An update made a loss, a weight or an optimiser's moment NaN or infinite. Training stops
+    before anything of it is written: the last checkpoint stays the last good one."""
+
+    def __init__(self, what: str, frames: int, updates: int, checkpoint_frames: int | None, run_dir: Path,
+                 lr: float):
+        self.what, self.frames, self.checkpoint_frames = what, frames, checkpoint_frames
+        lower = f"{min(lr / 10, OptimSettings.lr):.3g}"  # the default where the rate was above it
+        if checkpoint_frames is not None:
+            then = (f"its last good checkpoint ({checkpoint_frames:,} env steps) is kept: go on from it with a lower "
+                    f"learning rate, e.g. --resume {run_dir} --optim.lr {lower}")
+        else:
+            then = f"it has no checkpoint yet: start it again with a lower learning rate, e.g. --optim.lr {lower}"
+        super().__init__(f"training diverged at {frames:,} env steps (update {updates:,}): {what} became NaN or "
+                         f"infinite; {then}")
 
 
 class TrainingInterrupted(Exception):

@@ -1,0 +1,114 @@
+"""Training runs, third pass: a diverged update never replaces the last good checkpoint, the
+progress log keeps every row it can read, a finished run always has its best policy, full disks
+and folders in a checkpoint's place end in one line, settings have upper bounds, and a stop request
+is honoured at once. One test (or a few) per case of docs/reliability.md's table about training runs."""
+
+from __future__ import annotations
+
+import csv
+
+import pytest
+
+import training.trainer as trainer_module
+from training.checkpoint import CheckpointError, load_checkpoint
+from training.progress_log import read_progress
+from training.trainer import Trainer
+
+
+def _errors(capsys, prefix: str = "train_torchrl:") -> tuple[list[str], str]:
+    """The script's own lines on stderr (TorchRL's log lines apart), and the whole of stderr."""
+    err = capsys.readouterr().err
+    return [line for line in err.splitlines() if line.startswith(prefix)], err
+
+
+# ---------------------------------------------------------------------- a diverged update
+def test_a_diverged_update_stops_in_one_line_and_keeps_the_last_good_checkpoint(tmp_path, capsys, load_script,
+                                                                                 tiny_args):
+    script = load_script("train_torchrl")
+    run = tmp_path / "r"
+    # Learning starts after 64 random steps; the checkpoint at 64 is the last one before the updates.
+    code = script.main([*tiny_args(192), "--log.checkpoint_every_frames", "32", "--optim.lr", "1e30",
+                        "--log.run_root", str(tmp_path), "--run-name", "r"])
+    lines, err = _errors(capsys)
+    assert code == 1 and "Traceback" not in err and len(lines) == 1
+    assert lines[0].startswith("train_torchrl: training diverged at 96 env steps (update ")
+    assert "NaN or infinite" in lines[0] and "loss_qvalue" in lines[0]
+    assert lines[0].endswith(f"its last good checkpoint (64 env steps) is kept: go on from it with a lower learning "
+                             f"rate, e.g. --resume {run} --optim.lr 0.0003")
+    assert load_checkpoint(run / "checkpoint.pt")["counters"]["frames"] == 64  # whole, finite, resumable
+    # As the line says: resumed with a lower learning rate, the run goes on to its end, and the next
+    # resume keeps that rate.
+    assert script.main(["--resume", str(run), "--optim.lr", "0.0003"]) == 0
+    saved = load_checkpoint(run / "checkpoint.pt")
+    assert saved["counters"]["frames"] == 192 and saved["config"]["optim"]["lr"] == 0.0003
+    assert '"lr": 0.0003' in (run / "config.json").read_text()
+
+
+def test_a_diverged_update_before_the_first_checkpoint_writes_none(tmp_path, tiny_config):
+    c = tiny_config(192)
+    c.optim.lr = 1e30
+    with pytest.raises(trainer_module.TrainingDiverged, match="it has no checkpoint yet: start it again with a "
+                                                              "lower learning rate"):
+        Trainer(c, tmp_path / "r").train()
+    assert not (tmp_path / "r" / "checkpoint.pt").exists() and not (tmp_path / "r" / "best_policy.pt").exists()
+
+
+def test_non_finite_weights_are_never_written(tmp_path, tiny_config):
+    trainer = Trainer(tiny_config(96), tmp_path / "r")
+    with pytest.raises(trainer_module.TrainingDiverged, match="critics.0.*NaN or infinite"):
+        next(trainer.sac.critics[0].parameters()).data[0] = float("nan")
+        trainer.save()
+    assert not trainer.checkpoint_path.exists()
+
+
+# ---------------------------------------------------------------------- a changed setting on --resume
+def test_a_changed_setting_on_resume_is_named(tmp_path, tiny_config):
+    run = tmp_path / "r"
+    Trainer(tiny_config(96), run).train()
+    other = tiny_config(192)
+    other.optim.gamma, other.network.mlp_hidden = 0.9, 32
+    with pytest.raises(CheckpointError) as err:
+        Trainer(other, run, resume=True)
+    text = str(err.value)
+    assert "network.mlp_hidden (16 in the checkpoint, 32 now); optim.gamma (0.99 in the checkpoint, 0.9 now)" in text
+    assert "\n" not in text and "fingerprint" not in text
+
+
+# ---------------------------------------------------------------------- a damaged progress-log header
+def _progress_log(path, rows: int = 33) -> bytes:
+    with path.open("w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=trainer_module.CSV_FIELDS)
+        w.writeheader()
+        for i in range(1, rows + 1):
+            w.writerow({"frames": 32 * i, "updates": i, "episodes": 2 * i})
+    return path.read_bytes()
+
+
+@pytest.mark.parametrize("byte", [b"\0", b",", b"x", b"\xff", b"\r", b'"'])
+def test_one_damaged_byte_in_the_progress_log_header_loses_no_row(tmp_path, byte):
+    path = tmp_path / "progress.csv"
+    good = _progress_log(path)
+    end = good.index(b"\r\n")  # the header's own bytes (its line break apart)
+    for position in range(end):
+        path.write_bytes(good[:position] + byte + good[position + 1:])
+        rows, dropped = read_progress(path, trainer_module.CSV_FIELDS)
+        assert (len(rows), dropped) == (33, 0), position
+        assert [r["updates"] for r in rows] == [str(i) for i in range(1, 34)], position
+        assert list(rows[0]) == list(trainer_module.CSV_FIELDS), position
+
+
+def test_a_progress_log_of_an_older_layout_is_still_read_by_its_own_header(tmp_path):
+    path = tmp_path / "progress.csv"
+    path.write_text("frames,wall_s\n32,0.5\n64,1.0\n")
+    rows, dropped = read_progress(path, trainer_module.CSV_FIELDS)
+    assert rows == [{"frames": "32", "wall_s": "0.5"}, {"frames": "64", "wall_s": "1.0"}] and dropped == 0
+
+
+def test_resume_keeps_every_row_under_a_damaged_header(tmp_path, tiny_config):
+    run = tmp_path / "r"
+    Trainer(tiny_config(96), run).train()
+    good = (run / "progress.csv").read_bytes()
+    (run / "progress.csv").write_bytes(b"fr\0mes" + good[6:])
+    resumed = Trainer(tiny_config(192), run, resume=True)
+    assert resumed.notes == []
+    assert (run / "progress.csv").read_bytes() == good  # the header written again, every row kept
