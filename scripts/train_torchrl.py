@@ -124,8 +124,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.json:
         print(json.dumps({"run_dir": str(run_dir), **last}, indent=2))
     else:
-        print(f"trained to {trainer.counters.frames:,} env steps in {trainer.counters.wall_s:.0f} s; "
-              f"best policy: {run_dir / 'best_policy.pt'}")
+        best = run_dir / "best_policy.pt"
+        kept = f"best policy: {best}" if best.is_file() else "no best policy (no evaluation has run)"
+        print(f"trained to {trainer.counters.frames:,} env steps in {trainer.counters.wall_s:.0f} s; {kept}")
     return 0
 
 

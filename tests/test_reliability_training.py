@@ -159,7 +159,7 @@ def test_a_run_name_that_is_not_a_plain_folder_name_is_refused(name, seeds, tmp_
 def test_resume_never_replaces_the_best_policy_by_a_lower_score(tmp_path, tiny_config, monkeypatch):
     """SIGKILL after a best-policy save and before the next checkpoint: the checkpoint is older than
     best_policy.pt, so the best score must come from best_policy.pt itself."""
-    scores = iter([0.8, 0.5, 0.9])
+    scores = iter([0.3, 0.8, 0.5, 0.9])
     evaluated = []
 
     def fake_evaluation(policy, task_config, episodes=8, max_steps=500, window=8, seed=0):
@@ -174,7 +174,7 @@ def test_resume_never_replaces_the_best_policy_by_a_lower_score(tmp_path, tiny_c
         return c
 
     run = tmp_path / "run"
-    Trainer(config(64), run).train()  # checkpoint at 64, no evaluation yet
+    Trainer(config(64), run).train()  # evaluation at its end (0.3) and checkpoint at 64
     older = tmp_path / "checkpoint_at_64.pt"
     shutil.copyfile(run / "checkpoint.pt", older)
     Trainer(config(96), run, resume=True).train()  # evaluation at 96: 0.8, best policy, checkpoint at 96
@@ -184,7 +184,7 @@ def test_resume_never_replaces_the_best_policy_by_a_lower_score(tmp_path, tiny_c
     assert resumed.counters.best_eval == 0.8
     resumed.train()  # evaluation at 96 again: 0.5 < 0.8
     policy = checked_load(run / "best_policy.pt")
-    assert evaluated == [0.8, 0.5] and policy["evaluation"]["return_norm"] == 0.8
+    assert evaluated == [0.3, 0.8, 0.5] and policy["evaluation"]["return_norm"] == 0.8
     del resumed  # its lock on the folder goes with it
     gc.collect()
     Trainer(config(192), run, resume=True).train()  # a better one still replaces it

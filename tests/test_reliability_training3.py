@@ -6,11 +6,15 @@ is honoured at once. One test (or a few) per case of docs/reliability.md's table
 from __future__ import annotations
 
 import csv
+import errno
+import io
+import os
 
 import pytest
 
 import training.trainer as trainer_module
-from training.checkpoint import CheckpointError, load_checkpoint
+from training.checkpoint import CheckpointError, checked_load, load_checkpoint
+from training.config import TrainConfig
 from training.progress_log import read_progress
 from training.trainer import Trainer
 
@@ -112,3 +116,79 @@ def test_resume_keeps_every_row_under_a_damaged_header(tmp_path, tiny_config):
     resumed = Trainer(tiny_config(192), run, resume=True)
     assert resumed.notes == []
     assert (run / "progress.csv").read_bytes() == good  # the header written again, every row kept
+
+
+# ---------------------------------------------------------------------- the best policy of a run
+def test_a_run_shorter_than_its_evaluation_interval_still_evaluates_at_its_end(tmp_path, capsys, load_script,
+                                                                               tiny_args):
+    code = load_script("train_torchrl").main([*tiny_args(128), "--log.eval_every_frames", "10000",
+                                              "--log.run_root", str(tmp_path), "--run-name", "r"])
+    out = capsys.readouterr().out
+    best = tmp_path / "r" / "best_policy.pt"
+    assert code == 0 and best.is_file() and out.strip().endswith(f"best policy: {best}")
+    assert checked_load(best)["evaluation"]["frames"] == 128
+
+
+def test_the_script_never_names_a_best_policy_that_is_not_there(tmp_path, capsys, load_script, tiny_args,
+                                                                 monkeypatch):
+    monkeypatch.setattr(Trainer, "save_policy", lambda self, path, evaluation: None)
+    assert load_script("train_torchrl").main([*tiny_args(96), "--log.run_root", str(tmp_path), "--run-name", "r"]) == 0
+    out = capsys.readouterr().out
+    assert "best_policy.pt" not in out and "no best policy" in out
+
+
+# ---------------------------------------------------------------------- a full disk, a folder for a file
+def test_a_full_disk_during_a_checkpoint_write_ends_in_one_line_and_keeps_the_last_checkpoint(
+        tmp_path, capsys, load_script, tiny_args, monkeypatch):
+    """torch's writer reports a failed write as a ``RuntimeError``: the disk's own error is what is told."""
+    real_fdopen = os.fdopen
+    written = []
+
+    class FullDisk(io.RawIOBase):
+        def __init__(self, fh):
+            self.fh, self.size = fh, 0
+
+        def writable(self):
+            return True
+
+        def write(self, data):
+            self.size += len(data)
+            if self.size > 4096:
+                raise OSError(errno.ENOSPC, "No space left on device")
+            return self.fh.write(data)
+
+        def __getattr__(self, name):
+            return getattr(self.fh, name)
+
+    def fdopen(fd, *args, **kwargs):
+        fh = real_fdopen(fd, *args, **kwargs)
+        if ".checkpoint.pt." not in os.readlink(f"/proc/self/fd/{fd}"):
+            return fh
+        written.append(fd)
+        return fh if len(written) == 1 else FullDisk(fh)
+
+    monkeypatch.setattr(os, "fdopen", fdopen)
+    run = tmp_path / "r"
+    code = load_script("train_torchrl").main([*tiny_args(192), "--log.run_root", str(tmp_path), "--run-name", "r"])
+    lines, err = _errors(capsys)
+    assert code == 1 and "Traceback" not in err and len(written) == 2
+    assert lines[-1] == (f"train_torchrl: cannot write to the run folder {run} at 192 env steps (No space left on "
+                         f"device); its last checkpoint is at 96 env steps: once the folder can be written, go on with "
+                         f"--resume {run}")
+    assert load_checkpoint(run / "checkpoint.pt")["counters"]["frames"] == 96
+    assert not [p.name for p in run.iterdir() if p.name.startswith(".checkpoint.pt.")]
+
+
+@pytest.mark.parametrize("resume", [True, False])
+def test_a_checkpoint_that_is_a_folder_is_named_as_one(resume, tmp_path, capsys, load_script, tiny_args):
+    run = tmp_path / "r"
+    (run / "checkpoint.pt").mkdir(parents=True)
+    (run / "config.json").write_text(TrainConfig().to_json())
+    command = ["--resume", str(run)] if resume else [*tiny_args(96), "--log.run_root", str(tmp_path), "--run-name", "r"]
+    assert load_script("train_torchrl").main(command) == 2
+    lines, err = _errors(capsys)
+    assert "Traceback" not in err
+    assert lines == [(f"train_torchrl: {run / 'checkpoint.pt'} is a folder, not the file a run writes there: move it "
+                      "away, then resume from a copy of the run's checkpoint or start the run afresh")]
+    with pytest.raises(CheckpointError, match="is a folder"):
+        load_checkpoint(run / "checkpoint.pt")

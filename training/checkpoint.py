@@ -28,6 +28,16 @@ def config_fingerprint(config: dict[str, Any], ignore: tuple[str, ...] = ()) -> 
     return hashlib.sha256(json.dumps(kept, sort_keys=True).encode()).hexdigest()[:16]
 
 
+def not_a_file_message(path: Path) -> str | None:
+    """What ``path`` is where a file of a run is expected and something else is there (a folder, a
+    device, a socket); None where it is a file or nothing (a dangling link is nothing)."""
+    if not path.exists() or path.is_file():
+        return None
+    kind = "a folder" if path.is_dir() else "not a regular file"
+    return (f"{path} is {kind}, not the file a run writes there: move it away, then resume from a copy of the "
+            "run's checkpoint or start the run afresh")
+
+
 def save_checkpoint(path: Path | str, state: dict[str, Any], fingerprint: str) -> None:
     atomic_save({"format_version": FORMAT_VERSION, "fingerprint": fingerprint, **state}, path)
 
@@ -43,7 +53,7 @@ def load_checkpoint(path: Path | str, fingerprint: str | None = None,
     """
     path = Path(path)
     if not path.is_file():
-        raise CheckpointError(f"no checkpoint at {path}")
+        raise CheckpointError(not_a_file_message(path) or f"no checkpoint at {path}")
     try:
         data = checked_load(path)
     except DamagedFileError as err:

@@ -38,7 +38,14 @@ from jsbsim_env.sim.core import CoreConfig
 from jsbsim_env.task.attitude import PRIVILEGED_SIZE, TaskConfig, goal_range
 from jsbsim_env.task.torchrl_env import make_env
 from jsbsim_env.task.versions import task_version
-from training.checkpoint import CheckpointError, atomic_save, config_fingerprint, load_checkpoint, save_checkpoint
+from training.checkpoint import (
+    CheckpointError,
+    atomic_save,
+    config_fingerprint,
+    load_checkpoint,
+    not_a_file_message,
+    save_checkpoint,
+)
 from training.config import OptimSettings, TrainConfig, check_device
 from training.networks import make_actor, make_critic
 from training.progress_log import read_progress
@@ -159,7 +166,7 @@ class Trainer:
         self._folder_id = _identity(self.run_dir)
         self._checkpoint_frames: int | None = None  # steps of the checkpoint in the folder
         if resume and not self.checkpoint_path.is_file():
-            raise CheckpointError(self._no_checkpoint_message())
+            raise CheckpointError(not_a_file_message(self.checkpoint_path) or self._no_checkpoint_message())
         if not resume:
             self._start_afresh()
         self.remove_stale_temporaries()
@@ -223,6 +230,10 @@ class Trainer:
         """A new run in ``run_dir``: refused over a run (``RUN_FILES``); the logs of a run that
         stopped before its first checkpoint are removed (``notes`` says which)."""
         held = [name for name in RUN_FILES if (self.run_dir / name).exists()]
+        for name in held:
+            problem = not_a_file_message(self.run_dir / name)
+            if problem:
+                raise RunExistsError(problem)
         if "checkpoint.pt" in held:
             raise RunExistsError(f"{self.run_dir} already holds a run ({', '.join(held)}): go on with it with "
                                  f"--resume {self.run_dir}, or start afresh under another --run-name")
@@ -504,7 +515,8 @@ class Trainer:
                     if bar is not None:
                         bar.update(n)
                     evaluation = None
-                    if self.counters.frames >= next_eval:
+                    # Every ``eval_every_frames``, and at the end: a run that trained has a best policy.
+                    if self.counters.frames >= next_eval or self.counters.frames >= c.collector.total_frames:
                         evaluation = self.evaluate()
                         next_eval = _next_multiple(self.counters.frames, c.log.eval_every_frames)
                     if self.counters.frames >= next_log or evaluation is not None:

@@ -32,13 +32,18 @@ class _HashingWriter(io.RawIOBase):
 
     def __init__(self, fh):
         self.fh, self.sha = fh, hashlib.sha256()
+        self.error: OSError | None = None  # the write that failed (torch reports it as a RuntimeError)
 
     def writable(self) -> bool:
         return True
 
     def write(self, data) -> int:
         self.sha.update(data)
-        return self.fh.write(data)
+        try:
+            return self.fh.write(data)
+        except OSError as err:
+            self.error = err
+            raise
 
 
 def write_checked(obj: Any, fh) -> None:
@@ -46,7 +51,12 @@ def write_checked(obj: Any, fh) -> None:
     seekable binary file ``fh``, from its start."""
     fh.write(MAGIC + bytes(_DIGEST_SIZE))  # the digest's place, filled in once it is known
     writer = _HashingWriter(fh)
-    torch.save(obj, writer)
+    try:
+        torch.save(obj, writer)
+    except RuntimeError:
+        if writer.error is not None:  # a full disk, say: the OSError, as every other write raises it
+            raise writer.error from None
+        raise
     fh.seek(len(MAGIC))
     fh.write(writer.sha.digest())
     fh.seek(0, io.SEEK_END)
