@@ -162,7 +162,7 @@ def test_resume_never_replaces_the_best_policy_by_a_lower_score(tmp_path, tiny_c
     scores = iter([0.3, 0.8, 0.5, 0.9])
     evaluated = []
 
-    def fake_evaluation(policy, task_config, episodes=8, max_steps=500, window=8, seed=0):
+    def fake_evaluation(policy, task_config, episodes=8, max_steps=500, window=8, seed=0, stop=None):
         evaluated.append(next(scores))
         return {"return_norm": evaluated[-1], "length": 500.0, "early_ends": 0, "episodes": episodes}
 

@@ -7,8 +7,11 @@ from __future__ import annotations
 
 import csv
 import errno
+import gc
 import io
 import os
+import signal
+import time
 
 import pytest
 
@@ -192,3 +195,73 @@ def test_a_checkpoint_that_is_a_folder_is_named_as_one(resume, tmp_path, capsys,
                       "away, then resume from a copy of the run's checkpoint or start the run afresh")]
     with pytest.raises(CheckpointError, match="is a folder"):
         load_checkpoint(run / "checkpoint.pt")
+
+
+# ---------------------------------------------------------------------- stop requests
+def test_a_stop_request_is_honoured_between_two_updates(tmp_path, tiny_config, monkeypatch):
+    """A million updates per step: Ctrl-C stops the round at once, and the updates still owed are
+    the resumed run's."""
+    c = tiny_config(192)
+    c.optim.updates_per_step = 1e6
+    trainer = Trainer(c, tmp_path / "r")
+    real_update = Trainer._update
+
+    def update_then_ctrl_c(self, batch):
+        real_update(self, batch)
+        if self.counters.updates == 3:
+            signal.raise_signal(signal.SIGINT)
+
+    monkeypatch.setattr(Trainer, "_update", update_then_ctrl_c)
+    start = time.perf_counter()
+    with pytest.raises(trainer_module.TrainingInterrupted, match="SIGINT at 96 env steps"):
+        trainer.train()
+    assert time.perf_counter() - start < 30 and trainer.counters.updates == 3
+    saved = load_checkpoint(tmp_path / "r" / "checkpoint.pt")
+    assert saved["counters"]["updates"] == 3 and saved["counters"]["update_debt"] == 32e6 - 3
+    del trainer
+    gc.collect()
+    assert Trainer(c, tmp_path / "r", resume=True).counters.update_debt == 32e6 - 3
+
+
+def test_a_stop_request_ends_an_evaluation_at_its_next_step(tmp_path, tiny_config, monkeypatch):
+    trainer = Trainer(tiny_config(96), tmp_path / "r")
+    calls, actor = [], trainer.actor
+
+    def policy(td):
+        calls.append(1)
+        if len(calls) == 3:
+            trainer._stop.append(signal.SIGTERM)
+        return actor(td)
+
+    monkeypatch.setattr(trainer, "actor", policy)
+    assert trainer.evaluate() is None and len(calls) == 3
+    assert not (tmp_path / "r" / "best_policy.pt").exists()  # an evaluation cut short keeps nothing
+
+
+# ---------------------------------------------------------------------- upper bounds
+@pytest.mark.parametrize(("option", "value", "line"), [
+    ("--buffer.capacity", "1000000000000000", ("buffer.capacity must be an integer in [1, 1000000000], got "
+                                               "1000000000000000")),
+    ("--network.lstm_hidden", "100000000", "network.lstm_hidden must be an integer in [1, 4096], got 100000000"),
+    ("--network.mlp_hidden", "100000", "network.mlp_hidden must be an integer in [1, 4096], got 100000"),
+    ("--log.eval_episodes", "100000", "log.eval_episodes must be an integer in [1, 4096], got 100000"),
+    ("--env.num_envs", "100000", "env.num_envs must be an integer in [1, 4096], got 100000"),
+])
+def test_settings_that_size_a_run_have_an_upper_bound(option, value, line, tmp_path, capsys, load_script, tiny_args):
+    code = load_script("train_torchrl").main([*tiny_args(96), "--log.run_root", str(tmp_path), "--run-name", "r",
+                                              option, value])
+    lines, err = _errors(capsys)
+    assert code == 2 and lines == [f"train_torchrl: {line}"] and "Traceback" not in err
+    assert not (tmp_path / "r").exists()
+
+
+def test_a_run_that_needs_more_memory_than_the_machine_has_is_refused_before_any_work(tmp_path, capsys, load_script,
+                                                                                     tiny_args, monkeypatch):
+    monkeypatch.setattr(trainer_module, "available_memory", lambda: 2**30)
+    code = load_script("train_torchrl").main([*tiny_args(96), "--log.run_root", str(tmp_path), "--run-name", "r",
+                                              "--buffer.capacity", "1000000"])
+    lines, err = _errors(capsys)
+    assert code == 2 and len(lines) == 1 and "Traceback" not in err
+    assert lines[0].startswith("train_torchrl: the run would need about 1.2") and "(replay buffer 1.2" in lines[0]
+    assert "more than the 1 GiB free here: lower --buffer.capacity" in lines[0]
+    assert not (tmp_path / "r").exists()

@@ -203,6 +203,13 @@ def _f(default, help: str, allowed: Allowed, short: str | None = None):
 
 
 POSITIVE_INT = Number(1, integer=True)
+# Upper bounds of the settings that size what a run holds in memory. The paper's networks have 64
+# and 256 units and the shipped runs 8 aircraft; 16 times the paper's largest layer is already a
+# network of 200 million weights. A run is also refused where the memory it needs (replay buffer,
+# aircraft, networks: ``training.trainer.memory_needed``) exceeds what the machine has free.
+MAX_UNITS = 4096
+MAX_AIRCRAFT = 4096
+MAX_CAPACITY = 10**9
 COUNT = Number(0, integer=True)  # zero allowed
 POSITIVE = Number(0, low_open=True)
 NON_NEGATIVE = Number(0)
@@ -215,7 +222,8 @@ class EnvSettings:
                            "SolarUAVAttitude-v0 is the paper's, SolarUAVAttitude-v1 the shipped controller's", TaskName())
     aircraft: str = _f(AIRCRAFT_NAME, "the aircraft trained on: a packaged aircraft's name (the paper's solar_uav) or "
                                       "a folder built by scripts/build_aircraft.py --out", AircraftName(), short="aircraft")
-    num_envs: int = _f(8, "aircraft simulated side by side in one process", POSITIVE_INT)
+    num_envs: int = _f(8, "aircraft simulated side by side in one process (also bounded by the machine's memory)",
+                       Number(1, MAX_AIRCRAFT, integer=True))
     disturbances: bool = _f(True, "the task's delay, noise, random interval, randomisation and turbulence (false: "
                                   "ideal sensors and actuators, for checks)", Flag())
 
@@ -230,7 +238,8 @@ class CollectorSettings:
 
 @dataclass
 class BufferSettings:
-    capacity: int = _f(1_000_000, "replay capacity in transitions", POSITIVE_INT)
+    capacity: int = _f(1_000_000, "replay capacity in transitions (also bounded by the machine's memory)",
+                       Number(1, MAX_CAPACITY, integer=True))
     batch_size: int = _f(256, "transitions per gradient step", POSITIVE_INT)
     relabel_fraction: float = _f(0.5, "share of each batch given goals near the state reached, with the reward "
                                       "recomputed (training.relabel; 0: none)", FRACTION)
@@ -254,8 +263,8 @@ class NetworkSettings:
     encoder: str = _f("lstm", "the actor's and each critic's encoder of the observation window: lstm (the paper's), "
                               "gru, or mlp (the window flattened through one ReLU layer)", Choice(ENCODERS))
     lstm_hidden: int = _f(64, "units of the encoder (LSTM, GRU or window MLP) of the actor and of each critic",
-                          POSITIVE_INT)
-    mlp_hidden: int = _f(256, "units of each of the two fully connected layers", POSITIVE_INT)
+                          Number(1, MAX_UNITS, integer=True))
+    mlp_hidden: int = _f(256, "units of each of the two fully connected layers", Number(1, MAX_UNITS, integer=True))
     asymmetric_critic: bool = _f(False, "the critics also read what the aircraft cannot measure (true state, "
                                         "turbulence, the episode's coefficients, delay, trims); the actor never does",
                                  Flag())
@@ -279,7 +288,8 @@ class LogSettings:
     run_root: str = _f("runs", "folder under which each run gets its own folder", Text())
     log_every_frames: int = _f(1_000, "environment steps between log rows", POSITIVE_INT)
     eval_every_frames: int = _f(10_000, "environment steps between deterministic evaluations", POSITIVE_INT)
-    eval_episodes: int = _f(8, "fixed, seeded evaluation episodes", POSITIVE_INT)
+    eval_episodes: int = _f(8, "fixed, seeded evaluation episodes, flown side by side",
+                            Number(1, MAX_AIRCRAFT, integer=True))
     checkpoint_every_frames: int = _f(10_000, "environment steps between checkpoints", POSITIVE_INT)
     progress: bool = _f(True, "show a progress bar", Flag())
 

@@ -55,6 +55,22 @@ def available_cores() -> int:
         return os.cpu_count() or 1
 
 
+def available_memory() -> int | None:
+    """Bytes of memory this machine can give a new allocation without swapping (``MemAvailable``;
+    the physical memory where the kernel does not say), None where neither is known."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (AttributeError, ValueError, OSError):
+        return None
+
+
 def check_threads(threads: int, processes: int = 1) -> str | None:
     """A warning when ``threads`` torch threads in each of ``processes`` processes exceed the cores:
     OpenMP's threads then spin against each other (one run here was 8 times slower with 2 threads

@@ -50,7 +50,7 @@ from training.config import OptimSettings, TrainConfig, check_device
 from training.networks import make_actor, make_critic
 from training.progress_log import read_progress
 from training.relabel import relabel_goals
-from training.runtime import check_threads
+from training.runtime import available_memory, check_threads
 from training.sac import RecurrentSAC
 
 STORED_KEYS = ("observation", "action", ("next", "observation"), ("next", "reward"), ("next", "done"),
@@ -129,6 +129,40 @@ def changed_settings(saved: dict, current: dict) -> list[str]:
             for n in names if saved.get(n, missing) != current.get(n, missing)]
 
 
+# What a run holds in memory, for ``memory_needed``: each simulated aircraft (JSBSim and its windows;
+# about 1.1 MB measured, with room), and each network weight (itself, its gradient, Adam's two
+# moments, a target copy, the checkpoint's copy).
+BYTES_PER_AIRCRAFT = 4 * 2**20
+BYTES_PER_WEIGHT = 4 * 6
+
+
+def memory_needed(config: TrainConfig, observation_size: int, window: int) -> dict[str, int]:
+    """Bytes a run needs, roughly, by what needs them: the replay buffer filled to capacity (each
+    transition's two observation windows, action, reward, flags, goals, privileged entries), the
+    aircraft of training and of evaluation, the actor and the two critics (an LSTM's four gates
+    on its input and its state, then the two fully connected layers)."""
+    c = config
+    privileged = 2 * PRIVILEGED_SIZE if c.network.asymmetric_critic else 0
+    transition = 4 * (2 * window * observation_size + 4 + 1 + 4 + 1 + privileged) + 3
+    h, m = c.network.lstm_hidden, c.network.mlp_hidden
+    weights = 3 * (4 * h * (observation_size + h + 2) + (h + 4) * m + m * m + 8 * m)
+    return {"replay buffer": c.buffer.capacity * transition,
+            "aircraft": (c.env.num_envs + c.log.eval_episodes) * BYTES_PER_AIRCRAFT,
+            "networks": weights * BYTES_PER_WEIGHT}
+
+
+def check_memory(config: TrainConfig, observation_size: int, window: int) -> None:
+    """``ValueError`` (one line) where the run would need more memory than the machine has free."""
+    free = available_memory()
+    needed = memory_needed(config, observation_size, window)
+    if free is None or sum(needed.values()) <= free:
+        return
+    parts = ", ".join(f"{name} {size / 2**30:.3g} GiB" for name, size in needed.items())
+    raise ValueError(f"the run would need about {sum(needed.values()) / 2**30:.3g} GiB of memory ({parts}), more than "
+                     f"the {free / 2**30:.3g} GiB free here: lower --buffer.capacity, --env.num_envs, "
+                     "--log.eval_episodes or the networks' --network.lstm_hidden and --network.mlp_hidden")
+
+
 @dataclass
 class Counters:
     frames: int = 0
@@ -136,6 +170,9 @@ class Counters:
     episodes: int = 0
     wall_s: float = 0.0
     best_eval: float = -math.inf
+    # Updates owed to the steps collected (``optim.updates_per_step``) and not yet made: a stop
+    # request between two updates of a round leaves them to the resumed run.
+    update_debt: float = 0.0
 
 
 class Trainer:
@@ -154,6 +191,7 @@ class Trainer:
         c.env.aircraft = load_aircraft(c.env.aircraft).spec
         check_device(c.device)
         self.version = version = task_version(c.env.task)
+        check_memory(c, version.task.observation_size, version.flight_stack.window_steps)  # before any work
         self.run_dir = Path(run_dir)
         self.notes: list[str] = []  # what the run did to its folder that its user should hear of
         if resume and not self.run_dir.is_dir():
@@ -214,6 +252,7 @@ class Trainer:
         self._episode_returns: list[float] = []
         self._episode_lengths: list[int] = []
         self._losses: dict[str, list[float]] = {}
+        self._stop: list[int] = []  # signals received while training (``_stop_on_signals``)
 
     # ------------------------------------------------------------------ the run folder
     def _no_checkpoint_message(self) -> str:
@@ -491,8 +530,7 @@ class Trainer:
         next_ckpt = _next_multiple(self.counters.frames, c.log.checkpoint_every_frames)
         row: dict = {}
         last_eval: float | str = ""
-        update_debt = 0.0
-        stop: list[int] = []  # signals received (``_stop_on_signals``)
+        stop = self._stop = []  # signals received (``_stop_on_signals``)
         with _stop_on_signals(stop):
             try:
                 for data in collector:
@@ -505,11 +543,13 @@ class Trainer:
                     # Updates per step collected after the random warm-up.
                     learn_frames = self.counters.frames - max(before, c.collector.init_random_frames)
                     if learn_frames > 0:
-                        update_debt += learn_frames * c.optim.updates_per_step
-                        while update_debt >= 1.0:
+                        self.counters.update_debt += learn_frames * c.optim.updates_per_step
+                        while self.counters.update_debt >= 1.0 and not stop:  # a stop request ends the round
                             self._update(self.buffer.sample())
-                            update_debt -= 1.0
+                            self.counters.update_debt -= 1.0
                         self.check_finite()  # before the collector flies the weights
+                    if stop:
+                        self._interrupted(stop)
                     collector.update_policy_weights_()
                     self.counters.wall_s = wall_before + time.perf_counter() - session_start
                     if bar is not None:
@@ -518,6 +558,8 @@ class Trainer:
                     # Every ``eval_every_frames``, and at the end: a run that trained has a best policy.
                     if self.counters.frames >= next_eval or self.counters.frames >= c.collector.total_frames:
                         evaluation = self.evaluate()
+                        if evaluation is None:  # stopped before its end: nothing of it is kept
+                            self._interrupted(stop)
                         next_eval = _next_multiple(self.counters.frames, c.log.eval_every_frames)
                     if self.counters.frames >= next_log or evaluation is not None:
                         row = self._log_row(start_frames, session_start, evaluation)
@@ -537,14 +579,17 @@ class Trainer:
                         self.save()
                         next_ckpt = _next_multiple(self.counters.frames, c.log.checkpoint_every_frames)
                     if stop:
-                        self.save()
-                        raise TrainingInterrupted(signal.Signals(stop[0]).name, self.counters.frames,
-                                                  self.checkpoint_path)
+                        self._interrupted(stop)
             except BaseException:
                 self._close(collector, writer, csv_file, bar, quiet=True)  # the error in flight is the one to tell
                 raise
             self._close(collector, writer, csv_file, bar, quiet=False)
         return row
+
+    def _interrupted(self, stop: list[int]) -> None:
+        """A stop request: the checkpoint written, then ``TrainingInterrupted``."""
+        self.save()
+        raise TrainingInterrupted(signal.Signals(stop[0]).name, self.counters.frames, self.checkpoint_path)
 
     def _close(self, collector, writer, csv_file, bar, quiet: bool) -> None:
         """End a session: the collector, the logs (their last buffered rows written), the progress
@@ -563,11 +608,14 @@ class Trainer:
         if failed is not None and not quiet:
             raise self._folder_error(failed) from failed
 
-    def evaluate(self) -> dict:
-        """Deterministic evaluation on the fixed seeded episode set; keeps the best policy."""
+    def evaluate(self) -> dict | None:
+        """Deterministic evaluation on the fixed seeded episode set; keeps the best policy. None
+        where a stop request (``train``'s signals) ended it early."""
         c = self.config
         result = evaluate_policy(self.actor, self.eval_task_config, episodes=c.log.eval_episodes,
-                                 max_steps=EVAL_MAX_STEPS, window=self.window)
+                                 max_steps=EVAL_MAX_STEPS, window=self.window, stop=self._stop)
+        if result is None:
+            return None
         if result["return_norm"] > self.counters.best_eval:
             self.save_policy(self.run_dir / "best_policy.pt", {**result, "frames": self.counters.frames})
             self.counters.best_eval = result["return_norm"]
@@ -677,14 +725,15 @@ EVAL_SEED = 20240428  # the evaluation episodes are the same for every run and e
 
 @torch.no_grad()
 def evaluate_policy(policy, task_config: TaskConfig, episodes: int = 8, max_steps: int = 500, window: int = 8,
-                    seed: int = EVAL_SEED) -> dict:
+                    seed: int = EVAL_SEED, stop: list | None = None) -> dict | None:
     """The evaluation a run makes every ``log.eval_every_frames`` (its best policy is kept by it):
     fly ``episodes`` episodes side by side with the deterministic policy, each once.
 
     Returns the mean normalised return (episode reward / max_steps, the paper's Fig. 8; always with Eq. 22's
     reward and the policy on the throttle, whatever reward weights, penalty tail and external throttle the run
     trains with; ``Trainer`` passes the paper's disturbances, whatever turbulence and delay it trains in), the mean
-    episode length and the number of episodes that ended early (terminated, not truncated).
+    episode length and the number of episodes that ended early (terminated, not truncated). None
+    where ``stop`` (a list a signal handler appends to) fills before the episodes end.
     """
     plain = dataclasses.replace(task_config, sideslip_weight=1.0, roll_weight=1.0, pitch_weight=1.0, penalty_tail=0.0,
                                 external_throttle=0.0)
@@ -696,6 +745,9 @@ def evaluate_policy(policy, task_config: TaskConfig, episodes: int = 8, max_step
     early = torch.zeros(episodes, dtype=torch.bool)
     with set_exploration_type(ExplorationType.DETERMINISTIC):
         for _ in range(max_steps):
+            if stop:
+                env.close()
+                return None
             td = env.step(policy(td))
             reward = td["next", "reward"].reshape(episodes)
             total += reward * active
@@ -738,8 +790,9 @@ class TrainingInterrupted(Exception):
 @contextlib.contextmanager
 def _stop_on_signals(flag: list):
     """While inside, SIGINT and SIGTERM only append their number to ``flag`` (the loop checks it
-    between batches, so the checkpoint is never written from the middle of an update). Outside the
-    main thread signals cannot be caught, and nothing changes."""
+    between two updates, between two steps of an evaluation and between batches, so the checkpoint
+    is never written from the middle of an update). Outside the main thread signals cannot be
+    caught, and nothing changes."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
