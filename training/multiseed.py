@@ -65,7 +65,7 @@ def train_seeds(config: TrainConfig, seeds: list[int], name: str, command: list[
     from training.workers import process_pool
 
     # A training stopped by SIGINT or SIGTERM writes its checkpoint at the end of its batch first.
-    with process_pool(workers, grace_s=TRAINING_STOP_GRACE_S) as pool:
+    with process_pool(workers, grace_s=TRAINING_STOP_GRACE_S, jobs=len(runs)) as pool:
         return list(pool.map(train_seed, *zip(*[(c, d, command) for c, d in runs])))
 
 

@@ -88,14 +88,27 @@ def stop_workers(pool: ProcessPoolExecutor, grace_s: float = STOP_GRACE_S) -> No
             process.kill()
 
 
+def pool_size(requested: int, jobs: int | None = None) -> int:
+    """The processes a pool of ``requested`` workers starts for ``jobs`` pieces of work: never more
+    than the work (a worker without work is only a start-up cost) nor than the cores this process
+    may run on (one torch thread each: more only wait on each other); at least 1."""
+    if requested < 1:
+        raise ValueError(f"a process pool needs at least 1 worker, got {requested}")
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        cores = os.cpu_count() or 1
+    return max(1, min(requested, cores, requested if jobs is None else jobs))
+
+
 @contextlib.contextmanager
-def process_pool(workers: int, grace_s: float = STOP_GRACE_S) -> Iterator[ProcessPoolExecutor]:
-    """A pool of ``workers`` fresh processes of one torch thread each, for a ``with`` block. On a
-    normal exit it waits for its work; on any exception (Ctrl-C's ``KeyboardInterrupt`` included)
-    it stops its workers first (``stop_workers``, giving each ``grace_s`` seconds to end: longer for
-    work that saves itself on SIGTERM) and the exception goes on."""
-    if workers < 1:
-        raise ValueError(f"a process pool needs at least 1 worker, got {workers}")
+def process_pool(workers: int, grace_s: float = STOP_GRACE_S, jobs: int | None = None) -> Iterator[ProcessPoolExecutor]:
+    """A pool of ``pool_size(workers, jobs)`` fresh processes of one torch thread each, for a
+    ``with`` block. On a normal exit it waits for its work; on any exception (Ctrl-C's
+    ``KeyboardInterrupt`` included) it stops its workers first (``stop_workers``, giving each
+    ``grace_s`` seconds to end: longer for work that saves itself on SIGTERM) and the exception
+    goes on."""
+    workers = pool_size(workers, jobs)
     with _one_thread_environment():
         # Workers start as work is submitted, so the variables stay set while the pool lives.
         pool = ProcessPoolExecutor(max_workers=workers, mp_context=_WorkerContext(), initializer=_start_worker)
@@ -117,4 +130,4 @@ def optional_pool(workers: int) -> Iterator[ProcessPoolExecutor | None]:
         yield pool
 
 
-__all__ = ["THREAD_VARIABLES", "optional_pool", "process_pool", "stop_workers"]
+__all__ = ["THREAD_VARIABLES", "optional_pool", "pool_size", "process_pool", "stop_workers"]

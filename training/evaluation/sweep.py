@@ -226,8 +226,11 @@ def run_local(jobs: list, policy: str | None = None, workers: int = 1, progress=
               run: Callable[..., list[dict]] = run_job) -> list[dict]:
     """Run ``jobs`` in ``workers`` processes (1: in this one; more: fresh processes of one torch
     thread each, stopped on Ctrl-C, ``training.workers``); rows in job order. ``run(job, policy)``
-    flies one job (a module-level function, so that it pickles): ``run_job`` for the sweep's."""
-    if workers <= 1:
+    flies one job (a module-level function, so that it pickles): ``run_job`` for the sweep's. The
+    processes are at most the jobs and the cores (``training.workers.pool_size``)."""
+    from training.workers import pool_size, process_pool
+
+    if pool_size(workers, len(jobs)) <= 1:
         out = []
         for job in jobs:
             out += run(job, policy)
@@ -236,10 +239,8 @@ def run_local(jobs: list, policy: str | None = None, workers: int = 1, progress=
         return out
     from concurrent.futures import as_completed
 
-    from training.workers import process_pool
-
     results: list[list[dict]] = [[] for _ in jobs]
-    with process_pool(workers) as pool:
+    with process_pool(workers, jobs=len(jobs)) as pool:
         futures = {pool.submit(run, job, policy): i for i, job in enumerate(jobs)}
         for future in as_completed(futures):
             results[futures[future]] = future.result()
