@@ -31,6 +31,7 @@ import numpy as np
 
 # Only numpy and training.runtime (no torch, no simulation) load before the arguments are parsed,
 # so that a mistyped option is refused at once; the flights' modules load where they are flown.
+from training.output_folders import read_json, write_json_atomic, write_text_atomic
 from training.runtime import OutputFolderError, ScriptParser, check_output_folder, positive_int, run_command
 
 # Scorecard sections (named by the key each adds to the scorecard) and the report experiments
@@ -78,8 +79,8 @@ def score(controller_factory, out_dir: Path, policy: Path | None, episodes: int,
     path = out_dir / "scorecard.json"
     card = {"key": key}
     if path.exists():
-        cached = json.loads(path.read_text())
-        if cached.get("key") == key:
+        cached = read_json(path)
+        if isinstance(cached, dict) and cached.get("key") == key:
             card = cached
     if "suite" not in card:
         card["suite"] = suite_episodes(controller_factory(), episodes)
@@ -88,13 +89,13 @@ def score(controller_factory, out_dir: Path, policy: Path | None, episodes: int,
         return card
     out_dir.mkdir(parents=True, exist_ok=True)
     name = "PID" if policy is None else "RL"
-    earlier = json.loads((out_dir / "metrics.json").read_text()) if (out_dir / "metrics.json").exists() else {}
+    earlier = read_json(out_dir / "metrics.json") if (out_dir / "metrics.json").exists() else {}
     metrics = run_report(out_dir, policy, quick=quick, progress=False, controllers=(name,),
                          experiments=tuple(e for section in missing for e in SECTIONS[section]))
-    if earlier.get("controllers") == metrics["controllers"]:  # one report of every experiment flown
+    if isinstance(earlier, dict) and earlier.get("controllers") == metrics["controllers"]:  # one report of all
         merged = {**earlier, **metrics, "experiments": [*earlier.get("experiments", []), *metrics["experiments"]]}
-        (out_dir / "metrics.json").write_text(json.dumps(merged, indent=1, default=float))
-        (out_dir / "report.md").write_text(render_markdown(merged, out_dir))
+        write_json_atomic(out_dir / "metrics.json", merged, indent=1, default=float)
+        write_text_atomic(out_dir / "report.md", render_markdown(merged, out_dir))
     ended = card.setdefault("ended_early", {})
     if "route_10km" in missing:
         card["altitudes"] = {k: v[name]["steady_state_error"] for k, v in metrics["altitudes"].items()}
@@ -104,7 +105,7 @@ def score(controller_factory, out_dir: Path, policy: Path | None, episodes: int,
     if "table9" in missing:
         card["table9"] = {k: v[name]["whole_route"] for k, v in metrics["perturbation"].items()}
         ended.update({f"table9_{k}": bool(v[name]["ended_early"]) for k, v in metrics["perturbation"].items()})
-    path.write_text(json.dumps(card, indent=1, default=float))
+    write_json_atomic(path, card, indent=1, default=float)  # whole or as it was, even when stopped
     return card
 
 
@@ -291,9 +292,12 @@ def main(argv: list[str] | None = None) -> int:
         check_not_test_seed(ROUTE_SEED, "ablation (report routes)")
     except ValueError as err:
         parser.exit(2, f"ablation: {err}\n")
-    try:  # every folder a scorecard goes to, before the first flight
+    try:  # every folder a scorecard goes to, and the scorecards kept there, before the first flight
         for folder in [*(run / "scorecard" for run in args.runs), *([args.pid] if args.pid else [])]:
             check_output_folder(folder)
+            for kept in ("scorecard.json", "metrics.json"):
+                if (folder / kept).exists():
+                    read_json(folder / kept)
     except OutputFolderError as err:
         parser.exit(2, f"ablation: {err}\n")
     import torch

@@ -17,7 +17,10 @@ same families on the validation seeds (``VALIDATION_SEEDS``), for choices made w
 Writes to ``--out``: ``benchmark.md`` (a table per family), ``benchmark.json`` (the rows, the
 summary and the command), one PNG per family and ``command.txt``. ``--backend local`` and
 ``--backend ray`` give identical numbers. Every argument is checked before the first flight; an
-``--out`` holding an earlier benchmark's results is refused unless ``--overwrite``.
+``--out`` holding an earlier benchmark's results is refused unless ``--overwrite``, and one of
+another command, or holding files no earlier benchmark recorded, always
+(``training.output_folders``). The results are written to a temporary folder and moved into place
+at the end: an error or a Ctrl-C leaves the earlier results as they were.
 """
 
 from __future__ import annotations
@@ -48,18 +51,18 @@ from training.evaluation.benchmark import (
 )
 from training.evaluation.seeds import SPLITS, TEST_SEEDS
 from training.evaluation.sweep import run_local, run_ray
+from training.output_folders import OutputFolder, writing
 from training.runtime import (
     OutputFolderError,
     ScriptParser,
     add_aircraft_options,
     available_cores,
-    claim_output_folder,
     name_list,
     number_type,
     positive_int,
-    remove_earlier_results,
     run_command,
 )
+from training.workers import pool_size
 
 RESULTS = ("benchmark.md", "benchmark.json", "command.txt", *(f"{f}.png" for f in FAMILIES))
 
@@ -112,11 +115,13 @@ def compare_labels(paths, controllers: list[str]) -> dict[str, str]:
 
 def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
+    command = shlex.join(["python", "scripts/benchmark.py", *(sys.argv[1:] if argv is None else argv)])
+    out = OutputFolder(args.out, "benchmark", RESULTS, args.overwrite, command)
     try:
         controllers = name_list(args.controllers, CONTROLLER_NAMES, "--controllers")
         families = name_list(args.families, tuple(FAMILIES), "--families")
         flown_aircraft = load_aircraft(args.aircraft)
-        claim_output_folder(args.out, RESULTS, args.overwrite)
+        out.claim()
     except OutputFolderError as err:
         print(f"benchmark: --out: {err}", file=sys.stderr)
         return 2
@@ -150,23 +155,33 @@ def main(argv=None) -> int:
     bar = tqdm(total=len(jobs), desc=f"benchmark ({args.backend})", unit="flight", file=sys.stderr,
                disable=args.no_progress or args.json)
     started = time.perf_counter()
+    workers = pool_size(args.workers, len(jobs))
     try:
-        info = {"cpus": float(args.workers)}
+        info = {"cpus": float(workers)}
         if args.backend == "ray":
             rows = run_ray(jobs, args.policy, args.address, bar.update, info, run=run_benchmark_job)
         else:
-            rows = run_local(jobs, args.policy, args.workers, bar.update, run=run_benchmark_job)
+            rows = run_local(jobs, args.policy, workers, bar.update, run=run_benchmark_job)
     except RuntimeError as err:
         print(f"benchmark: {err}", file=sys.stderr)
         return 2
     finally:
         bar.close()
     wall_s = time.perf_counter() - started
-    args.out.mkdir(parents=True, exist_ok=True)
-    if args.overwrite:
-        remove_earlier_results(args.out, RESULTS)
-    command = shlex.join(["python", "scripts/benchmark.py", *(sys.argv[1:] if argv is None else argv)])
-    (args.out / "command.txt").write_text(command + "\n")
+    try:
+        with writing(out) as staging:
+            record = write_results(staging, args, rows, controllers, families, flown_aircraft, command, info, wall_s)
+    except OutputFolderError as err:  # the folder changed during the flights
+        print(f"benchmark: --out: {err}", file=sys.stderr)
+        return 2
+    print(json.dumps(json_ready(record), indent=1) if args.json
+          else f"{len(rows)} flights in {wall_s:.0f} s; written to {args.out}/")
+    return 0
+
+
+def write_results(folder: Path, args, rows, controllers, families, flown_aircraft, command, info, wall_s) -> dict:
+    """The benchmark's files in ``folder``; returns the record (``benchmark.json`` without its rows)."""
+    (folder / "command.txt").write_text(command + "\n")
     plan = BenchmarkPlan.quick() if args.quick else BenchmarkPlan()
     summary = summarise(rows, controllers, args.method)
     record = {"command": command, "backend": args.backend, "cores": info["cpus"], "wall_s": wall_s,
@@ -176,16 +191,12 @@ def main(argv=None) -> int:
               "method": args.method,
               "quick": args.quick, "plan": plan_dict(args.quick), "summary": summary,
               "selection": [{"controller": c, **s} for c, s in selection.rank(summary, *selection.sides(controllers))]}
-    (args.out / "benchmark.json").write_text(json.dumps(json_ready({**record, "rows": rows}), indent=1))
-    (args.out / "benchmark.md").write_text(render_markdown(summary, controllers, plan, args.episodes, command,
-                                                           args.method, args.split, args.aircraft))
+    (folder / "benchmark.json").write_text(json.dumps(json_ready({**record, "rows": rows}), indent=1))
+    (folder / "benchmark.md").write_text(render_markdown(summary, controllers, plan, args.episodes, command,
+                                                         args.method, args.split, args.aircraft))
     for family in families:
-        plot_family(rows, family, controllers, args.out / f"{family}.png", args.aircraft)
-    if args.json:
-        print(json.dumps(json_ready(record), indent=1))
-    else:
-        print(f"{len(rows)} flights in {wall_s:.0f} s; written to {args.out}/")
-    return 0
+        plot_family(rows, family, controllers, folder / f"{family}.png", args.aircraft)
+    return record
 
 
 if __name__ == "__main__":

@@ -9,7 +9,9 @@ the PID on the same suite.
 
 The suite (``training.evaluation.suite``): the doublets at three altitudes, then ``--episodes``
 seeded training-style episodes; every controller flies the same ones. A ``--plots`` folder that
-holds an earlier evaluation's plots is refused unless ``--overwrite``, which replaces them.
+holds an earlier evaluation's plots is refused unless ``--overwrite``, which replaces them (a folder
+of another command, or holding plots no earlier evaluation recorded, always:
+``training.output_folders``); the plots are moved into it when the suite has been flown.
 """
 
 from __future__ import annotations
@@ -17,20 +19,14 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import shlex
 import sys
 from pathlib import Path
 
 # Only the standard library and training.runtime (no torch) load before the arguments are parsed,
 # so that a mistyped option is refused at once; the simulation and the networks load in main().
-from training.runtime import (
-    OutputFolderError,
-    ScriptParser,
-    add_aircraft_options,
-    claim_output_folder,
-    positive_int,
-    remove_earlier_results,
-    run_command,
-)
+from training.output_folders import OutputFolder, writing
+from training.runtime import OutputFolderError, ScriptParser, add_aircraft_options, positive_int, run_command
 
 SHIPPED, PID = "shipped", "PID"  # column names of --compare
 # The classical controllers' keys in the JSON output, and what it says about each.
@@ -109,9 +105,12 @@ def main(argv: list[str] | None = None) -> int:
         names = [str(p) for p in args.compare]
         if len(set(names)) < len(names) or {SHIPPED, PID} & set(names):
             parser.error(f"--compare takes distinct policy files (other than {SHIPPED!r} and {PID!r}), got {names}")
+    plots = None
     if args.plots is not None:
+        command = shlex.join(["python", "scripts/evaluate.py", *(sys.argv[1:] if argv is None else argv)])
+        plots = OutputFolder(args.plots, "evaluate", PLOT_RESULTS, args.overwrite, command)
         try:
-            claim_output_folder(args.plots, PLOT_RESULTS, args.overwrite)
+            plots.claim()
         except OutputFolderError as err:
             print(f"evaluate: --plots: {err}", file=sys.stderr)
             return 2
@@ -137,9 +136,16 @@ def main(argv: list[str] | None = None) -> int:
         print(json.dumps(results, indent=2, allow_nan=False, default=str) if args.json else comparison_table(results))
         return 0
     ((controller, about),) = controllers.values()
-    if args.plots is not None and args.overwrite:
-        remove_earlier_results(args.plots, PLOT_RESULTS)
-    results = _evaluate(controller, about, args.episodes, args.plots, progress=not args.json, aircraft=args.aircraft)
+    if plots is None:
+        results = _evaluate(controller, about, args.episodes, None, progress=not args.json, aircraft=args.aircraft)
+    else:
+        try:
+            with writing(plots) as staging:
+                results = _evaluate(controller, about, args.episodes, staging, progress=not args.json,
+                                    aircraft=args.aircraft)
+        except OutputFolderError as err:  # the folder changed during the flights
+            print(f"evaluate: --plots: {err}", file=sys.stderr)
+            return 2
     print(json.dumps(results, indent=2, allow_nan=False, default=str) if args.json
           else results_table(next(iter(controllers)), results))
     return 0

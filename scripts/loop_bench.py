@@ -16,7 +16,9 @@ Every option is checked before the controller process starts (one line on stderr
 number out of its range, a fault that is not known, out of range or given twice, a fault after the
 flight's end, and in real time a line too slow (``--baud``) or too late (``delay_ms``) for any answer
 to arrive within the failsafe's hold time (``jsbsim_env.bench.plant``: 50.8 ms of ``delay_ms`` at the
-defaults). An ``--out`` that holds an earlier bench's results is refused unless ``--overwrite``. A
+defaults). An ``--out`` that holds an earlier bench's results is refused unless ``--overwrite`` (a
+folder of another command, or holding files no earlier bench recorded, always:
+``training.output_folders``); the results are moved into it only when all are written. A
 controller process that dies during the flight is survived: the failsafe PID flies on, and the
 summary records when (``controller_lost_at_s``).
 """
@@ -25,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import shlex
 import sys
 import time
 from pathlib import Path
@@ -32,15 +35,14 @@ from pathlib import Path
 import numpy as np
 
 from aircraft import load_aircraft
+from training.output_folders import OutputFolder, writing
 from training.runtime import (
     OutputFolderError,
     ScriptParser,
     add_aircraft_options,
-    claim_output_folder,
     non_negative_int,
     number_type,
     positive_int,
-    remove_earlier_results,
     run_command,
     seed_int,
 )
@@ -118,8 +120,10 @@ def main(argv=None) -> int:
         print(f"loop_bench: {exc}", file=sys.stderr)
         return 2
     out = Path(args.out)
+    command = shlex.join(["python", "scripts/loop_bench.py", *(sys.argv[1:] if argv is None else argv)])
+    folder = OutputFolder(out, "loop_bench", RESULTS, args.overwrite, command)
     try:
-        claim_output_folder(out, RESULTS, args.overwrite)
+        folder.claim()
     except OutputFolderError as exc:
         print(f"loop_bench: --out: {exc}", file=sys.stderr)
         return 2
@@ -158,12 +162,14 @@ def main(argv=None) -> int:
         ratio = {k: (summary["tracking_rmse"][k] / v if v else None) for k, v in ref["tracking_rmse"].items()}
         summary["in_process"] = {**ref, "rmse_ratio": ratio}
     summary = json_ready(summary)
-    out.mkdir(parents=True, exist_ok=True)
-    if args.overwrite:
-        remove_earlier_results(out, RESULTS)
-    (out / "summary.json").write_text(json.dumps(summary, indent=1))
-    np.savez_compressed(out / "frames.npz", **result.frames)
-    plot_bench(result, out / "loop_bench.png")
+    try:
+        with writing(folder) as staging:
+            (staging / "summary.json").write_text(json.dumps(summary, indent=1))
+            np.savez_compressed(staging / "frames.npz", **result.frames)
+            plot_bench(result, staging / "loop_bench.png")
+    except OutputFolderError as exc:  # the folder changed during the flight
+        print(f"loop_bench: --out: {exc}", file=sys.stderr)
+        return 2
     if args.json:
         print(json.dumps(summary, indent=1))
     else:

@@ -3,7 +3,8 @@
     python scripts/plot_effectiveness.py --out results/effectiveness   # PNG + JSON
     python scripts/plot_effectiveness.py --json                         # figures only
 
-An ``--out`` that holds an earlier figure and data is refused unless ``--overwrite``.
+An ``--out`` that holds an earlier figure and data is refused unless ``--overwrite`` (a folder of
+another command, or holding files no earlier run recorded, always: ``training.output_folders``).
 """
 
 from __future__ import annotations
@@ -15,14 +16,8 @@ import numpy as np
 
 from jsbsim_env.analysis.effectiveness import effectiveness, plot_effectiveness
 from jsbsim_env.sim.simulation import ALTITUDE_RANGE_M, EAS_RANGE_MPS
-from training.runtime import (
-    OutputFolderError,
-    ScriptParser,
-    claim_output_folder,
-    number_type,
-    remove_earlier_results,
-    run_command,
-)
+from training.output_folders import OutputFolder, writing
+from training.runtime import OutputFolderError, ScriptParser, number_type, run_command
 
 RESULTS = ("effectiveness.png", "effectiveness.json")  # what --out receives
 
@@ -38,18 +33,20 @@ def main(argv: list[str] | None = None) -> None:
                         default=2.0, help="altitude step, km")
     args = parser.parse_args(argv)
     if args.out is not None:
+        folder = OutputFolder(args.out, "plot_effectiveness", RESULTS, args.overwrite)
         try:
-            claim_output_folder(args.out, RESULTS, args.overwrite)
+            folder.claim()
         except OutputFolderError as err:
             parser.exit(2, f"plot_effectiveness: --out: {err}\n")
     altitudes_m = np.arange(0.0, 20000.0 + 1.0, args.step_km * 1000.0)
     rows = effectiveness(altitudes_m.tolist(), args.veas_mps)
     if args.out:
-        args.out.mkdir(parents=True, exist_ok=True)
-        if args.overwrite:
-            remove_earlier_results(args.out, RESULTS)
-        plot_effectiveness(rows, args.out / "effectiveness.png")
-        (args.out / "effectiveness.json").write_text(json.dumps(rows, indent=2))
+        try:
+            with writing(folder) as staging:
+                plot_effectiveness(rows, staging / "effectiveness.png")
+                (staging / "effectiveness.json").write_text(json.dumps(rows, indent=2))
+        except OutputFolderError as err:  # the folder changed meanwhile
+            parser.exit(2, f"plot_effectiveness: --out: {err}\n")
         print(f"wrote {args.out / 'effectiveness.png'} and effectiveness.json")
     if args.json or not args.out:
         print(json.dumps(rows, indent=2))

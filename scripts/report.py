@@ -8,26 +8,23 @@
 Writes DIR/report.md, a PNG per figure and DIR/metrics.json. The trained policy is the shipped
 one unless --policy is given; without either the PID parts run alone. A DIR that cannot be written
 to is refused before the first flight; one that holds an earlier report is refused unless
---overwrite, which removes the earlier report's files before the new one is flown (a report lists
-every figure in its folder, so the two are never mixed).
+--overwrite. The report is written to a temporary folder beside DIR and moved into place when it is
+complete, so an error or a Ctrl-C leaves the earlier report as it was; DIR's manifest
+(training.output_folders) records the files, and --overwrite replaces only those: a folder of
+another command, or one holding figures no earlier report recorded (fig*.png), is refused.
 """
 
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 from pathlib import Path
 
 # The experiments' and controllers' names for the help; torch and onnxruntime load when flying.
 from training.evaluation.report import CONTROLLERS, EXPERIMENTS, EXTRA_CONTROLLERS, run_report
-from training.runtime import (
-    OutputFolderError,
-    ScriptParser,
-    add_aircraft_options,
-    claim_output_folder,
-    remove_earlier_results,
-    run_command,
-)
+from training.output_folders import OutputFolder, writing
+from training.runtime import OutputFolderError, ScriptParser, add_aircraft_options, run_command
 
 # The files a report writes to --out (an earlier report's are refused, or replaced with --overwrite).
 RESULTS = ("report.md", "metrics.json", "fig*.png")
@@ -56,8 +53,10 @@ def main(argv: list[str] | None = None) -> int:
         bad = [name for name in given if name not in known]
         if bad or not given:
             parser.error(f"unknown or no {label} {bad}: choose from {', '.join(known)}")
+    command = shlex.join(["python", "scripts/report.py", *(sys.argv[1:] if argv is None else argv)])
+    out = OutputFolder(args.out, "report", RESULTS, args.overwrite, command)
     try:
-        claim_output_folder(args.out, RESULTS, args.overwrite)
+        out.claim()
     except OutputFolderError as err:
         print(f"report: --out: {err}", file=sys.stderr)
         return 2
@@ -72,12 +71,14 @@ def main(argv: list[str] | None = None) -> int:
         policy = args.policy or shipped_policy_path()
         policies = {"RL": policy} if "RL" in controllers and policy.exists() else {}
         check_flyable([name.lower() for name in controllers if name != "RL"], args.aircraft, policies, args.transfer)
-        if args.overwrite:
-            remove_earlier_results(args.out, RESULTS)
-        run_report(args.out, args.policy, quick=args.quick, progress=not args.no_progress, experiments=experiments,
-                   controllers=controllers, aircraft_spec=args.aircraft, transfer=args.transfer)
+        with writing(out) as staging:
+            run_report(staging, args.policy, quick=args.quick, progress=not args.no_progress, experiments=experiments,
+                       controllers=controllers, aircraft_spec=args.aircraft, transfer=args.transfer)
     except (PolicyFileError, AircraftError, GainsMissing) as err:
         print(f"report: {err}", file=sys.stderr)
+        return 2
+    except OutputFolderError as err:  # the folder changed during the flights
+        print(f"report: --out: {err}", file=sys.stderr)
         return 2
     print(f"wrote {args.out / 'report.md'}")
     return 0

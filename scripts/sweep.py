@@ -14,7 +14,9 @@ episodes and the other axes). Axes, units and the range of each: ``training/eval
 Every argument is checked before the first flight: an axis value outside its range, an axis given
 twice, a value given twice, or an ``--out`` that cannot be written is one line on stderr and exit
 code 2. An ``--out`` that holds an earlier sweep's results is refused unless ``--overwrite``, which
-replaces them (the earlier sweep's files are removed when the new one writes).
+replaces the files the earlier sweep recorded (``training.output_folders``: a folder of another
+command, or holding files no earlier sweep recorded, is refused). The results are written to a
+temporary folder and moved into place at the end: an error or a Ctrl-C leaves the earlier ones.
 """
 
 from __future__ import annotations
@@ -46,15 +48,9 @@ from training.evaluation.sweep import (
     run_local,
     run_ray,
 )
-from training.runtime import (
-    OutputFolderError,
-    ScriptParser,
-    add_aircraft_options,
-    claim_output_folder,
-    positive_int,
-    remove_earlier_results,
-    run_command,
-)
+from training.output_folders import OutputFolder, writing
+from training.runtime import OutputFolderError, ScriptParser, add_aircraft_options, positive_int, run_command
+from training.workers import pool_size
 
 # The files a sweep writes to --out (an earlier sweep's are refused, or replaced with --overwrite).
 RESULTS = ("sweep.csv", "sweep.json", "command.txt", *(f"{axis}.png" for axis in AXES))
@@ -137,8 +133,10 @@ def main(argv=None) -> int:
     except ValueError as err:
         print(f"sweep: {err}", file=sys.stderr)
         return 2
+    command = shlex.join(["python", "scripts/sweep.py", *(sys.argv[1:] if argv is None else argv)])
+    out = OutputFolder(args.out, "sweep", RESULTS, args.overwrite, command)
     try:
-        claim_output_folder(args.out, RESULTS, args.overwrite)
+        out.claim()
     except OutputFolderError as err:
         print(f"sweep: --out: {err}", file=sys.stderr)
         return 2
@@ -155,34 +153,36 @@ def main(argv=None) -> int:
     jobs = jobs_for(controllers, grid(axes), args.episodes, aircraft=args.aircraft, transfer=args.transfer)
     bar = tqdm(total=len(jobs), desc=f"sweep ({args.backend})", unit="job", file=sys.stderr)
     started = time.perf_counter()
+    workers = pool_size(args.workers, len(jobs))
     try:
-        info = {"cpus": float(args.workers)}
+        info = {"cpus": float(workers)}
         if args.backend == "ray":
             rows = run_ray(jobs, args.policy, args.address, bar.update, info)
         else:
-            rows = run_local(jobs, args.policy, args.workers, bar.update)
+            rows = run_local(jobs, args.policy, workers, bar.update)
     except RuntimeError as err:
         print(f"sweep: {err}", file=sys.stderr)
         return 2
     finally:
         bar.close()
     wall_s = time.perf_counter() - started
-    args.out.mkdir(parents=True, exist_ok=True)
-    if args.overwrite:
-        remove_earlier_results(args.out, RESULTS)
-    command = shlex.join(["python", "scripts/sweep.py", *(sys.argv[1:] if argv is None else argv)])
-    (args.out / "command.txt").write_text(command + "\n")
-    with (args.out / "sweep.csv").open("w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
     flights = len(rows)
     summary = {"command": command, "backend": args.backend, "cores": info["cpus"], "wall_s": wall_s,
                "flights": flights, "flights_per_core_second": flights / (wall_s * info["cpus"]),
                **summarise(rows, axes)}
-    (args.out / "sweep.json").write_text(json.dumps(json_ready({**summary, "rows": rows}), indent=1))
-    for axis in axes:
-        plot_axis(rows, axis, args.out / f"{axis}.png")
+    try:
+        with writing(out) as staging:
+            (staging / "command.txt").write_text(command + "\n")
+            with (staging / "sweep.csv").open("w", newline="") as fh:
+                writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+                writer.writeheader()
+                writer.writerows(rows)
+            (staging / "sweep.json").write_text(json.dumps(json_ready({**summary, "rows": rows}), indent=1))
+            for axis in axes:
+                plot_axis(rows, axis, staging / f"{axis}.png")
+    except OutputFolderError as err:  # the folder changed during the flights
+        print(f"sweep: --out: {err}", file=sys.stderr)
+        return 2
     if args.json:
         print(json.dumps(json_ready(summary), indent=1))
     else:

@@ -111,9 +111,18 @@ def _fake_rows(jobs, policy=None, workers=1, progress=None, *rest):
             for job in jobs for k in range(job.first, job.first + job.count)]
 
 
+def _earlier_run(folder: Path, command: str, files: dict[str, str | bytes]) -> None:
+    """``folder`` as an earlier run of ``command`` left it: its files and the manifest naming them."""
+    from training.output_folders import MANIFEST
+
+    folder.mkdir(parents=True, exist_ok=True)
+    for name, data in files.items():
+        (folder / name).write_bytes(data if isinstance(data, bytes) else data.encode())
+    (folder / MANIFEST).write_text(json.dumps({"version": 1, "command": command, "files": sorted(files)}))
+
+
 def test_sweep_refuses_a_folder_with_an_earlier_sweep_and_overwrite_replaces_it(sweep, monkeypatch, tmp_path, capsys):
-    (tmp_path / "sweep.json").write_text("{}")
-    (tmp_path / "delay_ms.png").write_bytes(b"an earlier sweep's figure")
+    _earlier_run(tmp_path, "sweep", {"sweep.json": "{}", "delay_ms.png": b"an earlier sweep's figure"})
     (tmp_path / "notes.txt").write_text("the user's own file")
     common = ["--axis", "backlash_deg=0,1", "--controllers", "pid", "--episodes", "1", "--out", str(tmp_path)]
     assert _run(sweep, common) == 2
@@ -126,6 +135,17 @@ def test_sweep_refuses_a_folder_with_an_earlier_sweep_and_overwrite_replaces_it(
     assert json.loads((tmp_path / "sweep.json").read_text())["flights"] == 2
     assert not (tmp_path / "delay_ms.png").exists()  # the earlier sweep's axis: not mixed with this one
     assert (tmp_path / "backlash_deg.png").is_file() and (tmp_path / "notes.txt").read_text() == "the user's own file"
+
+
+def test_sweep_never_replaces_results_it_has_no_record_of_writing(sweep, tmp_path, capsys):
+    (tmp_path / "sweep.json").write_text("{}")
+    (tmp_path / "delay_ms.png").write_bytes(b"a figure of unknown origin")
+    common = ["--axis", "backlash_deg=0,1", "--controllers", "pid", "--episodes", "1", "--out", str(tmp_path)]
+    for overwrite in ([], ["--overwrite"]):
+        assert _run(sweep, [*common, *overwrite]) == 2
+        line = _one_line(capsys)
+        assert "no earlier run of it recorded (delay_ms.png, sweep.json)" in line, line
+    assert (tmp_path / "delay_ms.png").read_bytes() == b"a figure of unknown origin"
 
 
 # ---------------------------------------------------------------------------------- report
@@ -148,24 +168,25 @@ def test_report_refuses_an_out_it_cannot_write_before_any_flight_and_at_once(out
 
 
 def test_report_refuses_an_earlier_report_and_overwrite_replaces_it_whole(report, monkeypatch, tmp_path, capsys):
-    (tmp_path / "report.md").write_text("earlier")
-    (tmp_path / "fig13_turbulence_RL.png").write_bytes(b"an earlier report's figure")
+    _earlier_run(tmp_path, "report", {"report.md": "earlier", "fig13_turbulence_RL.png": b"an earlier report's figure"})
     argv = ["--out", str(tmp_path), "--quick", "--controllers", "PID", "--experiments", "altitudes"]
     assert _run(report, argv) == 2
     assert "holds the results of an earlier run" in _one_line(capsys)
     assert (tmp_path / "report.md").read_text() == "earlier"
 
     def fake_report(out, policy, **kwargs):
-        assert not (Path(out) / "fig13_turbulence_RL.png").exists()  # gone before the new report lists its figures
+        assert not (Path(out) / "fig13_turbulence_RL.png").exists()  # a new folder: the report lists only its own
+        assert (tmp_path / "report.md").read_text() == "earlier"  # kept until the new report is complete
         (Path(out) / "report.md").write_text("new")
 
     monkeypatch.setattr(report, "run_report", fake_report)
     assert _run(report, [*argv, "--overwrite"]) == 0
     assert (tmp_path / "report.md").read_text() == "new"
+    assert not (tmp_path / "fig13_turbulence_RL.png").exists()  # the earlier report's, not written again
 
 
 def test_report_with_overwrite_keeps_the_earlier_report_when_the_policy_file_is_missing(report, tmp_path, capsys):
-    (tmp_path / "report.md").write_text("earlier")
+    _earlier_run(tmp_path, "report", {"report.md": "earlier"})
     code = _run(report, ["--out", str(tmp_path), "--overwrite", "--policy", str(tmp_path / "missing.pt")])
     assert code == 2 and "missing.pt does not exist" in _one_line(capsys)
     assert (tmp_path / "report.md").read_text() == "earlier"
@@ -183,9 +204,10 @@ SECOND_RUNS = {
 }
 
 
+@pytest.mark.parametrize("recorded", [True, False], ids=["recorded", "unrecorded"])
 @pytest.mark.parametrize("name", SECOND_RUNS)
-def test_a_second_run_into_a_folder_of_results_is_refused_before_any_work(name, load_script, monkeypatch, tmp_path,
-                                                                          capsys):
+def test_a_second_run_into_a_folder_of_results_is_refused_before_any_work(name, recorded, load_script, monkeypatch,
+                                                                          tmp_path, capsys):
     argv, earlier, work = SECOND_RUNS[name]
     script = load_script(name)
     if "." in work:
@@ -194,12 +216,19 @@ def test_a_second_run_into_a_folder_of_results_is_refused_before_any_work(name, 
         monkeypatch.setattr(work, _must_not_fly)
     else:
         monkeypatch.setattr(script, work, _must_not_fly)
-    (tmp_path / earlier).write_text("earlier")
+    single_file = name == "plot_training"  # writes one file, named by --out: no folder of its own
+    if recorded and not single_file:
+        _earlier_run(tmp_path, name, {earlier: "earlier"})
+    else:
+        (tmp_path / earlier).write_text("earlier")
     start = time.perf_counter()
     code = _run(script, [a.replace("{out}", str(tmp_path)) for a in argv])
     line = _one_line(capsys)
     assert code == 2 and time.perf_counter() - start < 0.5
-    assert "of an earlier run" in line and "--overwrite" in line and line.startswith(f"{name}: "), line
+    if recorded or single_file:
+        assert "of an earlier run" in line and "--overwrite" in line and line.startswith(f"{name}: "), line
+    else:  # files it may not replace, even with --overwrite
+        assert f"no earlier run of it recorded ({earlier})" in line and line.startswith(f"{name}: "), line
     assert (tmp_path / earlier).read_text() == "earlier"
 
 
