@@ -232,26 +232,10 @@ def test_a_second_run_into_a_folder_of_results_is_refused_before_any_work(name, 
     assert (tmp_path / earlier).read_text() == "earlier"
 
 
-def test_the_output_helpers_refuse_earlier_results_and_remove_only_the_commands_files(tmp_path):
-    from training.runtime import (
-        OutputFolderError,
-        claim_output_file,
-        claim_output_folder,
-        earlier_results,
-        remove_earlier_results,
-    )
+def test_the_output_file_helper_refuses_an_earlier_result_and_a_folder(tmp_path):
+    from training.runtime import OutputFolderError, claim_output_file
 
-    results = ("summary.json", "fig*.png")
-    assert claim_output_folder(tmp_path / "new", results) == tmp_path / "new" and not (tmp_path / "new").exists()
-    for name in ("summary.json", "fig1.png", "fig2.png", "notes.png", "data.csv"):
-        (tmp_path / name).write_text(name)
-    with pytest.raises(OutputFolderError, match=r"holds the results of an earlier run \(fig1.png, fig2.png, "
-                                                r"summary.json\): give another folder, or --overwrite"):
-        claim_output_folder(tmp_path, results)
-    assert claim_output_folder(tmp_path, results, overwrite=True) == tmp_path
-    assert [p.name for p in earlier_results(tmp_path, results)] == ["fig1.png", "fig2.png", "summary.json"]
-    remove_earlier_results(tmp_path, results)
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["data.csv", "notes.png"]
+    (tmp_path / "data.csv").write_text("data.csv")
     with pytest.raises(OutputFolderError, match="data.csv holds the result of an earlier run"):
         claim_output_file(tmp_path / "data.csv")
     with pytest.raises(OutputFolderError, match="is a folder"):

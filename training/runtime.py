@@ -18,7 +18,7 @@ import sys
 import tempfile
 import threading
 import warnings
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from pathlib import Path
 
 from aircraft import AIRCRAFT_NAME
@@ -348,43 +348,10 @@ seed_int = number_type(int, 0, name="seed")  # numpy's generators take seeds >= 
 
 
 # ---------------------------------------------------------------------------------- results of an earlier run
-def earlier_results(folder: Path | str, results: Iterable[str]) -> list[Path]:
-    """The files in ``folder`` that a command writing ``results`` (file names or glob patterns)
-    wrote there before, sorted; none where the folder does not exist."""
-    folder = Path(folder)
-    if not folder.is_dir():
-        return []
-    found = {p for pattern in results for p in folder.glob(pattern) if p.is_file()}
-    return sorted(found)
-
-
-def claim_output_folder(folder: Path | str, results: Iterable[str], overwrite: bool = False) -> Path:
-    """``check_output_folder``, and refuse a folder that holds results of an earlier run (a file
-    matching ``results``) unless ``overwrite``: a command never replaces results silently. Raises
-    ``OutputFolderError`` with one line; returns ``folder`` as a ``Path``. With ``overwrite`` the
-    command removes them (``remove_earlier_results``) just before it writes its own, so that the
-    folder never mixes two runs."""
-    folder = check_output_folder(folder)
-    earlier = earlier_results(folder, results)
-    if earlier and not overwrite:
-        names = ", ".join(p.name for p in earlier[:3]) + (f" and {len(earlier) - 3} more" if len(earlier) > 3 else "")
-        raise OutputFolderError(f"{folder} holds the results of an earlier run ({names}): give another folder, "
-                                "or --overwrite to replace them")
-    return folder
-
-
-def remove_earlier_results(folder: Path | str, results: Iterable[str]) -> list[Path]:
-    """Delete the earlier run's files of ``results`` in ``folder`` (a run with ``--overwrite``,
-    just before it writes its own); returns them."""
-    earlier = earlier_results(folder, results)
-    for path in earlier:
-        path.unlink()
-    return earlier
-
-
 def claim_output_file(path: Path | str, overwrite: bool = False) -> Path:
-    """The check of ``claim_output_folder`` for a command that writes one file: ``path`` is not a
-    folder, its folder can be written to, and an existing file is refused unless ``overwrite``."""
+    """For a command that writes one file (a folder's commands: ``training.output_folders``):
+    ``path`` is not a folder, its folder can be written to, and an existing file is refused unless
+    ``overwrite``."""
     path = Path(path)
     if path.is_dir():
         raise OutputFolderError(f"{path} is a folder: give the file's name")
