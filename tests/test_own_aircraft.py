@@ -221,6 +221,9 @@ def test_the_suite_the_sweep_and_the_loop_bench_fly_it(small, load_script, tmp_p
     doublets = doublet_runs(make_controller("pid", aircraft=small), aircraft=small)
     assert list(doublets) == ["75m", "750m", "2250m"] and not any(d["ended_early"] for d in doublets.values())
     assert all(d["pitch_doublet_deg"] == pytest.approx(2.1, abs=1e-9) for d in doublets.values())  # its glide
+    # About its level-flight pitch, the EAS steps after the pitch doublet settle.
+    assert all(d["level_pitch_deg"] > 5.0 for d in doublets.values())
+    assert all(np.isfinite(d["settling_time_90_s_airspeed_eas_mps"][0]) for d in doublets.values())
     assert parse_axis("altitude_m=500,2500", small) == ("altitude_m", [500.0, 2500.0])
     with pytest.raises(ValueError, match=r"5000 is outside its range \[0, 3000\] m: small_solar_uav's"):
         parse_axis("altitude_m=5000", small)
@@ -236,19 +239,29 @@ def test_the_suite_the_sweep_and_the_loop_bench_fly_it(small, load_script, tmp_p
 
 
 def test_the_pitch_doublet_is_the_papers_on_its_aircraft_and_no_steeper_than_a_flatter_glide(small):
-    """The paper's aircraft flies the paper's +-5 deg pitch doublet (Fig. 9); the small example,
-    a solar glider whose level-flight thrust at 12 m/s is 3.8 % of its weight (a 2.15 deg descent),
-    flies that angle rounded down to 0.1 deg: a 5 deg dive would take it far over its speed."""
-    from training.evaluation.suite import DOUBLET_STEPS, doublet_goal, doublet_steps, pitch_doublet_deg
+    """The paper's aircraft flies the paper's +-5 deg pitch doublet about 0 (Fig. 9); the small
+    example, a solar glider whose level-flight thrust at 12 m/s is 3.8 % of its weight (a 2.15 deg
+    descent) and whose level-flight pitch there is 5.9 deg, flies that angle rounded down to 0.1 deg
+    about that pitch: a 5 deg dive, or a goal of 0 deg, would take it far over its speed."""
+    from training.evaluation.suite import (
+        DOUBLET_STEPS,
+        doublet_goal,
+        doublet_steps,
+        level_pitch_deg,
+        pitch_doublet_deg,
+    )
 
-    assert pitch_doublet_deg() == 5.0 and doublet_steps() == DOUBLET_STEPS
+    assert pitch_doublet_deg() == 5.0 and level_pitch_deg() == 0.0 and doublet_steps() == DOUBLET_STEPS
     assert doublet_steps(10.0, pitch_deg=5.0) == DOUBLET_STEPS
     pitch = np.degrees([v for c, _, v in DOUBLET_STEPS if c == 1])
     assert pitch == pytest.approx([5.0, -5.0, 0.0], abs=1e-12)
     amplitude = pitch_doublet_deg(small)
     assert amplitude == pytest.approx(2.1, abs=1e-9) and amplitude < 5.0
-    goals = np.degrees([doublet_goal(t, 12.0, pitch_deg=amplitude)[1] for t in (29.0, 35.0, 45.0, 55.0)])
-    assert goals == pytest.approx([0.0, 2.1, -2.1, 0.0], abs=1e-9)
+    level = level_pitch_deg(small)
+    assert level == pytest.approx(5.9, abs=0.15)
+    goals = np.degrees([doublet_goal(t, 12.0, pitch_deg=amplitude, level_pitch_deg=level)[1]
+                        for t in (0.0, 29.0, 35.0, 45.0, 55.0)])
+    assert goals == pytest.approx(level + np.array([0.0, 0.0, 2.1, -2.1, 0.0]), abs=1e-9)
     assert np.degrees(doublet_goal(35.0, 12.0)[1]) == pytest.approx(5.0, abs=1e-12)  # the default: the paper's
     assert doublet_goal(35.0, 12.0, pitch_deg=amplitude)[2] == pytest.approx(12.0, abs=1e-12)
 

@@ -99,7 +99,8 @@ class Family:
 FAMILIES: dict[str, Family] = {f.name: f for f in (
     Family("turbulence", "turbulence rejection on a straight leg (Dryden 0.5 m/s on each axis)", "leg", tuple({"altitude_m": h} for h in (1000.0, 10000.0, 20000.0)),
            ROUTE_METRICS),
-    Family("steps", "a +5 deg step of roll or pitch (the other held at 0), calm air, sensor noise",
+    Family("steps", "a +5 deg step of roll or pitch from level flight (roll 0, pitch the aircraft's level-flight "
+                    "pitch: 0 on the paper's), calm air, sensor noise",
            "step", tuple({"channel": c, "altitude_m": h}
                                                                  for c in ("roll", "pitch") for h in (5000.0, 15000.0)),
            STEP_METRICS),
@@ -269,7 +270,7 @@ def step_metrics(time_s: np.ndarray, response_deg: np.ndarray, step_start_s: flo
 
 def _fly_step(controller, job: BenchJob, plan: BenchmarkPlan) -> tuple[dict, str]:
     from jsbsim_env.task.attitude import AttitudeTaskBatch, TaskConfig
-    from training.evaluation.suite import fly
+    from training.evaluation.suite import fly, level_pitch_deg
 
     interval = 0.04
     end_s = plan.step_start_s + plan.step_window_s
@@ -280,11 +281,14 @@ def _fly_step(controller, job: BenchJob, plan: BenchmarkPlan) -> tuple[dict, str
     batch = AttitudeTaskBatch(1, TaskConfig(core=core))
     channel = 0 if job.condition["channel"] == "roll" else 1
     step = math.radians(plan.step_deg)
+    # Pitch held at the aircraft's level-flight pitch (0 on the paper's aircraft, as its Fig. 9),
+    # the step measured from there.
+    level_deg = level_pitch_deg(job.aircraft)
 
     def goal(time_s: float) -> np.ndarray:
-        g = np.array([0.0, 0.0, eas_mps])
+        g = np.array([0.0, math.radians(level_deg), eas_mps])
         if time_s >= plan.step_start_s:
-            g[channel] = step
+            g[channel] += step
         return g
 
     rec, end = fly(controller, batch, seed=seed_of(job.realisation, job.split), steps=math.ceil(end_s / interval), goal_fn=goal,
@@ -292,7 +296,7 @@ def _fly_step(controller, job: BenchJob, plan: BenchmarkPlan) -> tuple[dict, str
     a = rec.arrays()
     if end["terminated"]:
         return dict.fromkeys(STEP_METRICS, math.nan), end["reason"] or "ended early"
-    response = np.degrees(a["true_state"][:, 1 + channel])
+    response = np.degrees(a["true_state"][:, 1 + channel]) - (level_deg if channel == 1 else 0.0)
     return step_metrics(a["time_s"], response, plan.step_start_s, plan.step_deg, plan.settle_band,
                         plan.step_window_s), ""
 

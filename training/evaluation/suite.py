@@ -21,9 +21,12 @@ identical episodes.
 
 Another aircraft (``aircraft``) flies the doublets at the same fractions of its envelope
 (``Aircraft.altitude_like_m``) and about its reference EAS (the EAS doublet to +-1 m/s of it).
-Its pitch doublet is +-5 deg or its steepest steady descent at that EAS if shallower
-(``pitch_doublet_deg``): an aircraft that glides flatter than 5 deg dives far over its speed at
--5 deg even at zero throttle, and the EAS steps that follow never settle.
+Its pitch goals are about its level-flight pitch at that EAS (``level_pitch_deg``; the paper's
+goals are about 0 deg, its aircraft's trim pitch being -1.0 deg), where a goal of 0 deg would hold
+an aircraft that trims at 6 deg in a 6 deg dive; and its pitch doublet is +-5 deg or its steepest
+steady descent at that EAS if shallower (``pitch_doublet_deg``): an aircraft that glides flatter
+than 5 deg dives far over its speed at -5 deg even at zero throttle, and the EAS steps that follow
+never settle.
 """
 
 from __future__ import annotations
@@ -55,42 +58,62 @@ DOUBLET_EAS_MPS = 10.0  # the EAS of DOUBLET_STEPS: another reference EAS shifts
 DOUBLET_PITCH_DEG = 5.0  # the pitch steps' size in DOUBLET_STEPS: another amplitude scales them alike
 
 
-def pitch_doublet_deg(aircraft=None) -> float:
-    """The pitch doublet's amplitude (deg) on ``aircraft`` (the paper's by default).
-
-    The paper's aircraft flies the paper's +-5 deg, as published. Another flies the smaller of 5 deg
-    and its steepest steady descent at its reference EAS, asin(thrust / weight) of its level-flight
-    trim there at the middle doublet altitude (level flight's drag is its thrust; a windmilling rotor
-    adds drag at zero throttle, so the angle it can hold is steeper: this is conservative), rounded
-    down to 0.1 deg (at least 0.1 deg)."""
-    flown = load_aircraft(aircraft)
-    if flown.papers:
-        return DOUBLET_PITCH_DEG
+@functools.cache
+def _reference_flight(spec: str) -> tuple[float, float]:
+    """The level-flight pitch (deg) and the steepest steady descent (deg) of the aircraft ``spec``
+    (``Aircraft.spec``), from its trim at its reference EAS and the middle doublet altitude: level flight's
+    drag is its thrust, and asin(thrust / weight) the descent that drag holds (a windmilling rotor
+    adds drag at zero throttle, so the angle it can hold is steeper: this is conservative)."""
+    flown = load_aircraft(spec)
     sim = Simulation(flown)
     trim = sim.trim(flown.altitude_like_m(DOUBLET_ALTITUDES_M[1]), flown.reference_eas_mps)
     glide_deg = math.degrees(math.asin(min(1.0, trim.thrust_n / (sim["inertia/weight-lbs"] * LBF_TO_N))))
+    return trim.pitch_deg, glide_deg
+
+
+def pitch_doublet_deg(aircraft=None) -> float:
+    """The pitch doublet's amplitude (deg) on ``aircraft`` (the paper's by default): the paper's
+    +-5 deg on its aircraft, as published; on another the smaller of 5 deg and its steepest steady
+    descent at its reference EAS (``_reference_flight``), rounded down to 0.1 deg (at least 0.1 deg)."""
+    flown = load_aircraft(aircraft)
+    if flown.papers:
+        return DOUBLET_PITCH_DEG
+    glide_deg = _reference_flight(flown.spec)[1]
     return max(0.1, math.floor(10.0 * min(DOUBLET_PITCH_DEG, glide_deg)) / 10.0)
 
 
+def level_pitch_deg(aircraft=None) -> float:
+    """The pitch (deg) the scripted goals of ``aircraft`` (the paper's by default) hold between their
+    pitch steps: 0 on the paper's aircraft, as published; on another its level-flight pitch at its
+    reference EAS (``_reference_flight``), rounded to 0.1 deg."""
+    flown = load_aircraft(aircraft)
+    if flown.papers:
+        return 0.0
+    return round(_reference_flight(flown.spec)[0], 1)
+
+
 @functools.cache  # read by the goal every control step
-def doublet_steps(eas_mps: float = DOUBLET_EAS_MPS, *, pitch_deg: float = DOUBLET_PITCH_DEG) -> tuple:
+def doublet_steps(eas_mps: float = DOUBLET_EAS_MPS, *, pitch_deg: float = DOUBLET_PITCH_DEG,
+                  level_pitch_deg: float = 0.0) -> tuple:
     """``DOUBLET_STEPS`` about a reference EAS of ``eas_mps`` (itself at 10 m/s), the pitch steps
-    ``pitch_deg`` (itself at 5 deg) each way."""
+    ``pitch_deg`` (itself at 5 deg) each way about ``level_pitch_deg`` (itself at 0)."""
+    level = math.radians(level_pitch_deg)
+
     def value(channel: int, v: float) -> float:
         if channel == 2:
             return v + eas_mps - DOUBLET_EAS_MPS
-        if channel == 1 and v != 0.0:
-            return math.copysign(math.radians(pitch_deg), v)  # the table's own value at 5 deg
+        if channel == 1:  # the table's own values at 5 deg about 0
+            return level + (math.copysign(math.radians(pitch_deg), v) if v != 0.0 else 0.0)
         return v
 
     return tuple((c, t, value(c, v)) for c, t, v in DOUBLET_STEPS)
 
 
 def doublet_goal(time_s: float, eas_mps: float = DOUBLET_EAS_MPS, *,
-                 pitch_deg: float = DOUBLET_PITCH_DEG) -> np.ndarray:
+                 pitch_deg: float = DOUBLET_PITCH_DEG, level_pitch_deg: float = 0.0) -> np.ndarray:
     """The scripted goal (roll rad, pitch rad, EAS m/s) at ``time_s`` (``doublet_steps``)."""
-    goal = np.array([0.0, 0.0, eas_mps])
-    for channel, start, value in doublet_steps(eas_mps, pitch_deg=pitch_deg):
+    goal = np.array([0.0, math.radians(level_pitch_deg), eas_mps])
+    for channel, start, value in doublet_steps(eas_mps, pitch_deg=pitch_deg, level_pitch_deg=level_pitch_deg):
         if time_s >= start:
             goal[channel] = value
     return goal
@@ -125,10 +148,11 @@ def fly(controller: AttitudeController, batch: AttitudeTaskBatch, seed: int, ste
 
 
 def step_response_metrics(rec: EpisodeRecorder, eas_mps: float = DOUBLET_EAS_MPS, *,
-                          pitch_deg: float = DOUBLET_PITCH_DEG) -> dict:
+                          pitch_deg: float = DOUBLET_PITCH_DEG, level_pitch_deg: float = 0.0) -> dict:
     """Steady-state error and 90 % settling time of each scripted step (see the module docstring),
-    about a reference EAS of ``eas_mps``, the pitch steps ``pitch_deg`` each way."""
-    steps = doublet_steps(eas_mps, pitch_deg=pitch_deg)
+    about a reference EAS of ``eas_mps``, the pitch steps ``pitch_deg`` each way about ``level_pitch_deg``."""
+    steps = doublet_steps(eas_mps, pitch_deg=pitch_deg, level_pitch_deg=level_pitch_deg)
+    start_values = {0: 0.0, 1: math.radians(level_pitch_deg), 2: eas_mps}
     a = rec.arrays()
     t, s = a["time_s"], a["true_state"]
     signals = {0: np.degrees(s[:, 1]), 1: np.degrees(s[:, 2]), 2: s[:, 6]}
@@ -140,7 +164,7 @@ def step_response_metrics(rec: EpisodeRecorder, eas_mps: float = DOUBLET_EAS_MPS
         later = [st for ch, st, _ in steps[idx + 1:] if ch == channel]
         stop = later[0] if later else DOUBLET_END_S
         previous = [v for ch, st, v in steps[:idx] if ch == channel]
-        before = previous[-1] if previous else (eas_mps if channel == 2 else 0.0)
+        before = previous[-1] if previous else start_values[channel]
         size = abs(value - before) * scale[channel]
         target = value * scale[channel]
         window = (t > start) & (t <= stop)
@@ -166,11 +190,11 @@ def doublet_runs(controller: AttitudeController, altitudes_m=None, plot_dir: Pat
     """The paper's Section 5: the scripted doublets from a slightly perturbed start at each altitude
     (``DOUBLET_ALTITUDES_M`` moved into the envelope of ``aircraft``, the paper's by default, when
     None), no delay, noise or perturbation of the aircraft; the pitch steps ``pitch_doublet_deg``
-    each way. Returns metrics per altitude (with that amplitude, ``pitch_doublet_deg``); writes the
+    each way about ``level_pitch_deg``. Returns metrics per altitude (with both); writes the
     Fig. 9 plots and time histories to ``plot_dir``."""
     flown = load_aircraft(aircraft)
     eas = flown.reference_eas_mps  # the paper's aircraft's: 10 m/s
-    pitch = pitch_doublet_deg(flown)  # the paper's aircraft's: 5 deg
+    pitch, level = pitch_doublet_deg(flown), level_pitch_deg(flown)  # the paper's aircraft's: 5 and 0 deg
     if altitudes_m is None:
         altitudes_m = tuple(flown.altitude_like_m(h) for h in DOUBLET_ALTITUDES_M)
     results = {}
@@ -180,15 +204,16 @@ def doublet_runs(controller: AttitudeController, altitudes_m=None, plot_dir: Pat
     steps = int(DOUBLET_END_S / 0.05)
     for altitude in altitudes_m:
         rec, end = fly(controller, batch, seed=int(altitude), steps=steps,
-                       goal_fn=lambda t: doublet_goal(t, eas, pitch_deg=pitch), altitude_m=altitude,
+                       goal_fn=lambda t: doublet_goal(t, eas, pitch_deg=pitch, level_pitch_deg=level), altitude_m=altitude,
                        airspeed_eas_mps=eas)
-        results[f"{altitude:.0f}m"] = {**rec.tracking_metrics(), **step_response_metrics(rec, eas, pitch_deg=pitch),
-                                       "ended_early": end["terminated"], "termination": end["reason"],
-                                       "pitch_doublet_deg": pitch}
+        metrics = step_response_metrics(rec, eas, pitch_deg=pitch, level_pitch_deg=level)
+        results[f"{altitude:.0f}m"] = {**rec.tracking_metrics(), **metrics, "ended_early": end["terminated"],
+                                       "termination": end["reason"], "pitch_doublet_deg": pitch,
+                                       "level_pitch_deg": level}
         if plot_dir is not None:
             Path(plot_dir).mkdir(parents=True, exist_ok=True)
             rec.plot(Path(plot_dir) / f"{prefix}_{altitude:.0f}m.png",
-                     f"Doublets at {altitude:.0f} m, EAS {eas:g} m/s, pitch ±{pitch:g} deg")
+                     f"Doublets at {altitude:.0f} m, EAS {eas:g} m/s, pitch {level:g} ±{pitch:g} deg")
             rec.save(Path(plot_dir) / f"{prefix}_{altitude:.0f}m.npz")
     return results
 
@@ -235,6 +260,7 @@ __all__ = [
     "doublet_goal",
     "doublet_runs",
     "doublet_steps",
+    "level_pitch_deg",
     "evaluate",
     "fly",
     "pitch_doublet_deg",
