@@ -142,7 +142,8 @@ def _tables(rows, cls, section: str) -> tuple:
 
 def geometry_from_dict(data: dict) -> AircraftGeometry:
     """An ``AircraftGeometry`` from a parsed description (module docstring); ``KeyError``,
-    ``TypeError`` or ``ValueError`` naming the key otherwise. Physical checks: ``check``."""
+    ``TypeError`` or ``ValueError`` naming the key otherwise. Physical checks: ``check``; plausibility (ratios
+    between quantities, within what a UAV can be): ``plausible``."""
     unknown = sorted(set(data) - {*_TOP, *SECTIONS})
     if unknown:
         raise KeyError(f"{unknown[0]} is not a section of an aircraft description (its sections: "
@@ -174,6 +175,7 @@ def geometry_from_dict(data: dict) -> AircraftGeometry:
             flat.update(_table(data[section], AircraftGeometry, section, names))
     geometry = AircraftGeometry(**flat)
     check(geometry)
+    plausible(geometry)
     return geometry
 
 
@@ -277,6 +279,221 @@ def check(g: AircraftGeometry) -> None:
             _positive(getattr(c, name), f"contacts[{i}].{name}")
 
 
+# ---------------------------------------------------------------------------------- plausibility
+# Limits on ratios between a description's quantities, beyond their signs: a well-typed value no
+# UAV can have (an inertia of 1e9 kg m^2 on 12 kg, a 50 m propeller on a 5 m wing) is refused here,
+# before the minutes of analysis, rather than built into a model that flies nonsense. Each limit
+# holds the three example aircraft (aircraft/*.toml) with a wide margin.
+G_MPS2 = 9.80665
+SEA_LEVEL_DENSITY_KG_M3 = 1.225  # ISA: equivalent airspeed's dynamic pressure at every altitude
+SEA_LEVEL_KINEMATIC_VISCOSITY_M2_S = 1.46e-5  # ISA, for the wing's Reynolds number at its reference EAS
+# From a hand-launched model's 0.1 kg to a large HALE UAV's 20 t (a Global Hawk's 14.6 t).
+MASS_RANGE_KG = (0.1, 20000.0)
+# From a 0.3 m micro UAV to 100 m (Helios: 75 m); outside it the lattice's panels and the
+# propeller's polars are of another kind of vehicle.
+SPAN_RANGE_M = (0.3, 100.0)
+# Aspect ratio b^2/S: a flying wing's 3 to a high-altitude glider's 40 (the examples: 15-17).
+ASPECT_RATIO_RANGE = (3.0, 40.0)
+# Weight over wing area, N/m^2: a solar HALE's 5-50 (the paper's 45) to a large jet UAV's 3,000
+# (an MQ-9's 1,900).
+WING_LOADING_RANGE_N_M2 = (5.0, 3000.0)
+# The lift coefficient at the lowest EAS of the envelope (sea-level dynamic pressure: EAS): above
+# 2.0, beyond the maximum of any wing without flaps, the aircraft cannot fly that slowly.
+MAX_LIFT_COEFFICIENT = 2.0
+# The highest EAS: the analysis (lattice, section polars, blade elements) is incompressible, good
+# to Mach 0.3 (100 m/s at sea level).
+MAX_EAS_MPS = 100.0
+# envelope.cruise_reynolds against the wing's mean chord at the reference EAS at sea level
+# (higher altitudes lower it): the section polars read there are another wing's when off by more.
+REYNOLDS_FACTOR = 4.0
+# Reference area, span and chord of the coefficients against the wing's (area, span, area/span):
+# the coefficients are referred to the wing; a factor of 2 off is another aircraft's reference.
+REFERENCE_FACTOR = 2.0
+# Radius of gyration sqrt(I/m) over the aircraft's size (span for Ixx, length for Iyy, the larger
+# for Izz): all the mass at the tips gives 0.5, a uniform rod 0.29; the examples 0.09-0.24. Below
+# 0.03 the whole mass would sit at the centre of gravity.
+GYRATION_FRACTION_RANGE = (0.03, 0.5)
+# Outer-panel dihedral, wing twist and incidence, tail incidence (deg): beyond these the small-angle
+# lattice is outside its validity, and no UAV flies them (the examples: 3-6 deg of dihedral).
+MAX_DIHEDRAL_DEG = 20.0
+MAX_TWIST_DEG = 10.0
+MAX_INCIDENCE_DEG = 10.0
+# The tails' quarter chord behind the wing's, in wing mean chords: a conventional tail acts behind
+# the wing, 2-7 mean chords on UAVs and sailplanes (the examples: 3.9-4.9); nearer it sits in the
+# wing's wake, farther no boom carries it.
+TAIL_ARM_CHORDS_RANGE = (1.5, 15.0)
+# A horizontal tail's half span, a fin's height, over the wing's semi-span (the examples: 0.15-0.26).
+MAX_TAIL_SPAN_FRACTION = 0.5
+# Tail volumes: horizontal S_h l_h / (S c), 0.3-0.6 on sailplanes and UAVs; vertical S_v l_v / (S b),
+# 0.015-0.05 (the examples: 0.38-0.48 and 0.016-0.028).
+HORIZONTAL_TAIL_VOLUME_RANGE = (0.1, 1.5)
+VERTICAL_TAIL_VOLUME_RANGE = (0.005, 0.15)
+# Every point of the description (fuselage stations, rotors, contacts, tails, the CG height) within
+# one span of the wing root's leading edge, and the fuselage's radius within a fifth of the span:
+# beyond, it is no aircraft whose wing carries it.
+MAX_EXTENT_SPANS = 1.0
+MAX_FUSELAGE_RADIUS_SPANS = 0.2
+# Propeller diameter over the span: the examples' 0.06-0.18; at 0.4 a single nose propeller is
+# already larger than any UAV's.
+MAX_PROPELLER_SPAN_FRACTION = 0.4
+# Blade count: the blade-element model's propellers, from 2 blades to 8 (a propfan's).
+BLADE_COUNT_RANGE = (2, 8)
+# Rotors: one to sixteen (Helios: 14 motors).
+MAX_ROTORS = 16
+# Blade tip speed at the rotor speed limit: beyond the speed of sound at sea level the
+# incompressible blade elements are wrong (the examples: 157-207 m/s).
+MAX_TIP_SPEED_MPS = 340.0
+# A rotor's inertia over what its share of the aircraft's mass spread as a rod across the disc
+# would give (mass (D/2)^2): the examples' 0.001-0.006; a rotor weighing most of the aircraft gives 0.3.
+MAX_ROTOR_INERTIA_FRACTION = 0.05
+# Shaft power of all motors per newton of weight: 1-12 W/N for the examples; below 0.2 no UAV flies
+# level (weight times 6 m/s over a lift-to-drag ratio of 30), above 200 it is no motor its mass carries.
+POWER_TO_WEIGHT_RANGE_W_N = (0.2, 200.0)
+# Control surface travel, each way: beyond 45 deg a surface only stalls (the examples: 20-30 deg).
+MAX_SURFACE_TRAVEL_DEG = 45.0
+# Actuator lags: a servo slower than 1 s, a motor or its controller slower than 2 s, controls no
+# aircraft; a servo faster than 2,000 deg/s is none that exists.
+MAX_SURFACE_TIME_CONSTANT_S = 1.0
+MAX_ROTOR_TIME_CONSTANT_S = 2.0
+MAX_SURFACE_RATE_DEG_PER_S = 2000.0
+
+
+def _within(value: float, limits: tuple[float, float], key: str, what: str, why: str) -> None:
+    """``ValueError`` naming ``key`` unless ``limits[0] <= value <= limits[1]``."""
+    low, high = limits
+    if not low <= value <= high:
+        raise ValueError(f"{key}: {what} is {value:.4g}, outside {low:g} to {high:g}: {why}")
+
+
+def _tail_arm_m(t: TailSurface, wing_quarter_chord_x_m: float) -> float:
+    """The tail's mean quarter chord behind the wing's, x, m."""
+    le_x = (t.root_le_m[0] + t.tip_le_m[0]) / 2.0
+    return le_x + (t.root_chord_m + t.tip_chord_m) / 8.0 - wing_quarter_chord_x_m
+
+
+def plausible(g: AircraftGeometry) -> None:
+    """Refuse (``ValueError`` naming the key and the reason) a description that ``check`` lets
+    through but no UAV can be: ratios between its quantities outside the limits above."""
+    w, e, p = g.wing, g.envelope, g.propeller
+    _within(g.mass_kg, MASS_RANGE_KG, "mass.mass_kg", "the mass (kg)", "no UAV weighs that")
+    _within(w.span_m, SPAN_RANGE_M, "wing.span_m", "the span (m)", "no UAV the analysis models has that span")
+    _within(w.span_m ** 2 / w.area_m2, ASPECT_RATIO_RANGE, "wing.area_m2", "the aspect ratio span^2/area",
+            "no wing of a UAV")
+    mean_chord = w.area_m2 / w.span_m
+    semi_span = w.span_m / 2.0
+    loading = g.mass_kg * G_MPS2 / w.area_m2
+    _within(loading, WING_LOADING_RANGE_N_M2, "mass.mass_kg", "the wing loading mass x g / wing.area_m2 (N/m^2)",
+            "no UAV's wing carries that")
+    v_low, v_high = e.eas_range_mps
+    cl_low = 2.0 * g.mass_kg * G_MPS2 / (SEA_LEVEL_DENSITY_KG_M3 * v_low ** 2 * w.area_m2)
+    if cl_low > MAX_LIFT_COEFFICIENT:
+        raise ValueError(f"envelope.eas_range_mps: level flight at its lowest EAS ({v_low:g} m/s) needs a lift "
+                         f"coefficient of {cl_low:.2f}, above {MAX_LIFT_COEFFICIENT:g}, the most a wing without flaps "
+                         "gives: raise the lowest EAS or the wing area")
+    if v_high > MAX_EAS_MPS:
+        raise ValueError(f"envelope.eas_range_mps: its highest EAS ({v_high:g} m/s) is above {MAX_EAS_MPS:g} m/s, "
+                         "where the incompressible analysis ends (Mach 0.3)")
+    reynolds = e.reference_eas_mps * mean_chord / SEA_LEVEL_KINEMATIC_VISCOSITY_M2_S
+    _within(e.cruise_reynolds / reynolds, (1.0 / REYNOLDS_FACTOR, REYNOLDS_FACTOR), "envelope.cruise_reynolds",
+            f"its ratio to the wing's Reynolds number at the reference EAS at sea level ({reynolds:.3g})",
+            "the section polars read there would be another wing's")
+    for name, wing_value in (("reference_area_m2", w.area_m2), ("reference_span_m", w.span_m),
+                             ("reference_chord_m", mean_chord)):
+        _within(getattr(g, name) / wing_value, (1.0 / REFERENCE_FACTOR, REFERENCE_FACTOR), f"reference.{name}",
+                f"its ratio to the wing's ({wing_value:.4g})", "the coefficients are referred to the wing")
+    for key, value, limit in (("wing.outer_dihedral_deg", w.outer_dihedral_deg, MAX_DIHEDRAL_DEG),
+                              ("wing.tip_twist_deg", w.tip_twist_deg, MAX_TWIST_DEG),
+                              ("wing.incidence_deg", w.incidence_deg, MAX_INCIDENCE_DEG),
+                              ("horizontal_tail.incidence_deg",
+                               0.0 if g.solve_tail_incidence else g.horizontal_tail.incidence_deg, MAX_INCIDENCE_DEG),
+                              ("vertical_tail.incidence_deg", g.vertical_tail.incidence_deg, MAX_INCIDENCE_DEG)):
+        _within(value, (-limit, limit), key, "the angle (deg)", "no UAV's, and outside the small angles the lattice "
+                "models")
+    # The tails: behind the wing, of a size the wing can trim.
+    wing_quarter_chord_x_m = w.root_chord_m / 4.0  # the quarter-chord line is unswept
+    ht, vt = g.horizontal_tail, g.vertical_tail
+    for tail, t in (("horizontal_tail", ht), ("vertical_tail", vt)):
+        arm = _tail_arm_m(t, wing_quarter_chord_x_m)
+        _within(arm / mean_chord, TAIL_ARM_CHORDS_RANGE, f"{tail}.root_le_m",
+                f"the tail's quarter chord behind the wing's ({arm:.3g} m), in wing mean chords ({mean_chord:.3g} m),",
+                "a tail ahead of the wing or in its wake does not act as one, and no boom carries one farther")
+    ht_span = ht.tip_le_m[1] - ht.root_le_m[1]
+    vt_height = vt.tip_le_m[2] - vt.root_le_m[2]
+    for key, value, what in (("horizontal_tail.tip_le_m", ht_span, "the half span (tip y - root y, m)"),
+                             ("vertical_tail.tip_le_m", vt_height, "the height (tip z - root z, m)")):
+        if not value > 0.0:
+            raise ValueError(f"{key}: {what} is {value:.4g}: the tip must lie outboard of (above) the root")
+        _within(value / semi_span, (0.0, MAX_TAIL_SPAN_FRACTION), key, f"{what} over the wing's semi-span",
+                "a tail that large is a second wing")
+    ht_volume = (2.0 * ht_span * (ht.root_chord_m + ht.tip_chord_m) / 2.0 * _tail_arm_m(ht, wing_quarter_chord_x_m)
+                 / (w.area_m2 * mean_chord))
+    _within(ht_volume, HORIZONTAL_TAIL_VOLUME_RANGE, "horizontal_tail (its chords, half span and arm)",
+            "the horizontal tail volume (area x arm / (wing area x mean chord))",
+            "too small a tail cannot trim the aircraft, too large one is a second wing")
+    vt_volume = (vt_height * (vt.root_chord_m + vt.tip_chord_m) / 2.0 * _tail_arm_m(vt, wing_quarter_chord_x_m)
+                 / (w.area_m2 * w.span_m))
+    _within(vt_volume, VERTICAL_TAIL_VOLUME_RANGE, "vertical_tail (its chords, height and arm)",
+            "the vertical tail volume (area x arm / (wing area x span))",
+            "too small a fin gives no directional stability, too large one is no UAV's")
+    # Where things are: within the aircraft's size.
+    reach = MAX_EXTENT_SPANS * w.span_m
+    points = [(f"fuselage.fuselage_stations_m[{i}]", (x, 0.0, 0.0)) for i, (x, _) in enumerate(g.fuselage_stations_m)]
+    points += [(f"{tail}.{end}", getattr(getattr(g, tail), end)) for tail in ("horizontal_tail", "vertical_tail")
+               for end in ("root_le_m", "tip_le_m")]
+    points += [(f"rotors[{i}].position_m", r.position_m) for i, r in enumerate(g.rotors)]
+    points += [(f"contacts[{i}].position_m", c.position_m) for i, c in enumerate(g.contacts)]
+    points.append(("mass.cg_z_m", (0.0, 0.0, g.cg_z_m)))
+    for key, xyz in points:
+        distance = math.sqrt(sum(v * v for v in xyz))
+        if distance > reach:
+            raise ValueError(f"{key}: {distance:.4g} m from the wing root's leading edge, more than "
+                             f"{MAX_EXTENT_SPANS:g} span ({reach:.4g} m): no part of an aircraft lies that far out")
+    for i, (_, radius) in enumerate(g.fuselage_stations_m):
+        _within(radius / w.span_m, (0.0, MAX_FUSELAGE_RADIUS_SPANS), f"fuselage.fuselage_stations_m[{i}]",
+                "the radius over the span", "a fuselage that wide is no wing-borne aircraft's")
+    # Mass distribution: radii of gyration within the aircraft's size.
+    xs = [x for x, _ in g.fuselage_stations_m] + [r.position_m[0] for r in g.rotors]
+    xs += [t.root_le_m[0] + t.root_chord_m for t in (ht, vt)] + [t.tip_le_m[0] + t.tip_chord_m for t in (ht, vt)]
+    length = max(max(xs) - min(xs), w.root_chord_m)
+    ixx, iyy, izz, _ = g.inertia_kg_m2
+    for which, inertia, size, size_name in (("Ixx", ixx, w.span_m, "the span"), ("Iyy", iyy, length, "the length"),
+                                            ("Izz", izz, max(w.span_m, length), "the larger of span and length")):
+        gyration = math.sqrt(inertia / g.mass_kg)
+        _within(gyration / size, GYRATION_FRACTION_RANGE, f"mass.inertia_kg_m2 ({which})",
+                f"the radius of gyration sqrt({which}/mass) = {gyration:.3g} m over {size_name} ({size:.3g} m)",
+                "no mass spread over this aircraft gives that inertia")
+    # Propulsion.
+    if not 1 <= len(g.rotors) <= MAX_ROTORS:
+        raise ValueError(f"rotors: {len(g.rotors)} rotors, more than {MAX_ROTORS}: no UAV has that many")
+    _within(p.diameter_m / w.span_m, (0.0, MAX_PROPELLER_SPAN_FRACTION), "propeller.diameter_m",
+            "the propeller diameter over the span", "no UAV's wing carries a propeller that large")
+    _within(p.blade_count, BLADE_COUNT_RANGE, "propeller.blade_count", "the blade count",
+            "the blade-element model's propellers have 2 to 8 blades")
+    tip_speed = math.pi * p.diameter_m * g.max_rotor_speed_rpm / 60.0
+    _within(tip_speed, (0.0, MAX_TIP_SPEED_MPS), "propulsion.max_rotor_speed_rpm",
+            "the blade tip speed at the rotor speed limit (m/s)", "a supersonic tip is outside the blade-element model")
+    rotor_mass_share = g.mass_kg / len(g.rotors) * (p.diameter_m / 2.0) ** 2
+    _within(g.rotor_inertia_kg_m2 / rotor_mass_share, (0.0, MAX_ROTOR_INERTIA_FRACTION),
+            "propulsion.rotor_inertia_kg_m2",
+            "the rotor inertia over (the aircraft's mass per rotor) x (propeller radius)^2",
+            "a rotor that heavy would weigh more than the aircraft carries")
+    power = len(g.rotors) * g.motor_max_power_w / (g.mass_kg * G_MPS2)
+    _within(power, POWER_TO_WEIGHT_RANGE_W_N, "propulsion.motor_max_power_w",
+            "the shaft power of all motors per newton of weight (W/N)",
+            "too little flies no UAV level, too much is no motor its mass carries")
+    # Controls.
+    for name in ("aileron_limit_deg", "elevator_limit_deg", "rudder_limit_deg"):
+        _within(getattr(g, name), (0.0, MAX_SURFACE_TRAVEL_DEG), f"actuators.{name}", "the travel each way (deg)",
+                "beyond it a control surface only stalls")
+    _within(g.surface_time_constant_s, (0.0, MAX_SURFACE_TIME_CONSTANT_S), "actuators.surface_time_constant_s",
+            "the servo lag (s)", "a servo that slow controls no aircraft")
+    _within(g.surface_rate_limit_deg_per_s, (0.0, MAX_SURFACE_RATE_DEG_PER_S), "actuators.surface_rate_limit_deg_per_s",
+            "the servo rate (deg/s)", "no servo moves a surface that fast")
+    for name in ("esc_time_constant_s", "rotor_time_constant_s"):
+        _within(getattr(g, name), (0.0, MAX_ROTOR_TIME_CONSTANT_S), f"propulsion.{name}", "the lag (s)",
+                "a motor that slow controls no aircraft")
+
+
 def load_description(path: Path | str) -> AircraftGeometry:
     """The aircraft described by the TOML file at ``path``; a ``DescriptionError`` naming the file
     and the key where the file cannot describe one."""
@@ -294,4 +511,5 @@ def load_description(path: Path | str) -> AircraftGeometry:
         raise DescriptionError(f"{path}: {message}") from err
 
 
-__all__ = ["PAPER_AIRCRAFT", "SECTIONS", "TRIM_INCIDENCE", "DescriptionError", "check", "geometry_from_dict", "load_description"]
+__all__ = ["PAPER_AIRCRAFT", "SECTIONS", "TRIM_INCIDENCE", "DescriptionError", "check", "geometry_from_dict",
+           "load_description", "plausible"]
