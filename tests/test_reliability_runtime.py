@@ -71,7 +71,7 @@ def test_a_refused_control_interval_on_the_first_step_leaves_nothing_behind(runt
     fresh = runtime.act(LEVEL, GOAL, 0.04)
     for bad in (float("nan"), 0.0, -0.04, float("inf")):
         runtime.reset()
-        with pytest.raises(ValueError, match="control interval must be positive"):
+        with pytest.raises(ValueError, match="control interval dt_s = .* s is outside"):
             runtime.act(LEVEL, GOAL, bad)
         np.testing.assert_array_equal(runtime.act(LEVEL, GOAL, 0.04), fresh)  # as if the refused call never was
 
@@ -295,5 +295,69 @@ def test_act_refuses_a_finite_measurement_too_large_for_the_network():
     for index in (1, 6):  # roll, EAS
         huge = np.array(LEVEL, dtype=float)
         huge[index] = 1e39
-        with pytest.raises(ValueError, match="beyond"):
+        with pytest.raises(ValueError, match="is outside what solar_uav in flight can give"):
             runtime.act(huge, GOAL, 0.04)
+
+
+# ----------------------------------------------------------------------------- inputs no aircraft could give
+
+_DEG = math.pi / 180.0
+
+
+def _with(values, index, value):
+    out = np.array(values, dtype=float)
+    out[index] = value
+    return out
+
+
+@pytest.mark.parametrize(("measurement", "goal", "named"), [
+    (LEVEL, np.array([3.0, 1.15, 10.0]), r"goal roll = 3 rad \(171.9 deg\) is outside .* to 0.174533 rad"),  # degrees
+    (LEVEL, np.array([0.0, 1.15, 10.0]), r"goal pitch = 1.15 rad .* is outside"),
+    (LEVEL, np.array([0.0, 0.0, -10.0]), r"goal EAS = -10 m/s is outside .* \(6 m/s to 14 m/s"),
+    (LEVEL, np.array([0.0, 0.0, 1000.0]), r"goal EAS = 1000 m/s is outside"),
+    (_with(LEVEL, 0, 10000.0 / 0.3048), GOAL, r"measurement altitude_m = 32808.4 m is outside .* to 25000 m"),  # feet
+    (_with(LEVEL, 1, 200.0), GOAL, r"measurement roll_rad = 200 rad .* is outside .* to 3.14159 rad"),  # degrees
+    (_with(LEVEL, 2, 30.0), GOAL, r"measurement pitch_rad = 30 rad .* to 1.5708 rad"),
+    (_with(LEVEL, 3, 90.0), GOAL, r"measurement p_radps = 90 rad/s .* to 6.28319 rad/s"),  # deg/s
+    (_with(LEVEL, 6, 100.0), GOAL, r"measurement airspeed_eas_mps = 100 m/s .* to 36 m/s"),
+    (_with(LEVEL, 10, 5.0), GOAL, r"measurement elevator_rad = 5 rad .* to 0.654498 rad"),  # degrees
+    (_with(LEVEL, 12, 50.0), GOAL, r"measurement throttle = 50 0..1 .* to 1 0..1"),  # percent
+    (LEVEL.astype(complex), GOAL, r"measurement must hold real numbers, got complex128"),
+    (LEVEL, GOAL + 0j, r"goal must hold real numbers"),
+    (LEVEL.astype(str), GOAL, r"measurement must hold real numbers"),
+])
+@pytest.mark.parametrize("backend", ["onnx", "torch"])
+def test_act_refuses_goals_and_measurements_no_aircraft_could_give_by_value_unit_and_limit(
+        runtimes, backend, measurement, goal, named):
+    runtime = runtimes[backend]
+    runtime.reset()
+    with pytest.raises(ValueError, match=named):
+        runtime.act(measurement, goal, 0.04)
+    assert runtime.stack.last_action is None  # refused before any stage moved
+
+
+@pytest.mark.parametrize(("dt_s", "named"), [
+    (40, r"dt_s = 40 s is outside the 0.02 to 0.12 s"),  # milliseconds
+    (0.001, r"dt_s = 0.001 s is outside"),
+    (True, r"dt_s must be a real number of seconds, got True \(bool\)"),
+    ("0.04", r"dt_s must be a real number of seconds, got '0.04' \(str\)"),
+    (0.04 + 0j, r"dt_s must be a real number of seconds"),
+])
+def test_act_refuses_an_interval_no_task_flies_at(runtimes, dt_s, named):
+    runtime = runtimes["torch"]
+    runtime.reset()
+    fresh = runtime.act(LEVEL, GOAL, 0.04)
+    runtime.reset()
+    with pytest.raises(ValueError, match=named):
+        runtime.act(LEVEL, GOAL, dt_s)
+    np.testing.assert_array_equal(runtime.act(LEVEL, GOAL, np.float32(0.04)), fresh.astype(float))
+
+
+def test_act_flies_the_edges_of_what_the_task_asks(runtimes):
+    runtime = runtimes["torch"]
+    for goal in ([10 * _DEG, 20 * _DEG, 6.0], [-10 * _DEG, -20 * _DEG, 14.0]):
+        runtime.reset()
+        assert runtime.act(LEVEL, np.array(goal), 0.04).shape == (4,)
+    tumbling = np.array([-4000.0, math.pi, -math.pi / 2, 6, -6, 6, 0.0, -math.pi, math.pi, 0.6, -0.6, 0.4, 1.0])
+    runtime.reset()
+    assert runtime.act(tumbling, GOAL, 0.12).shape == (4,)

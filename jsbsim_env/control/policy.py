@@ -32,23 +32,17 @@ from torch import nn
 
 from aircraft import AIRCRAFT_NAME, Aircraft, load_aircraft
 from jsbsim_env.control.checked_io import DamagedFileError, checked_load, non_finite_entries
+from jsbsim_env.control.input_checks import InputLimits, check_interval, learned_interval_s
 from jsbsim_env.control.network import ENCODERS, ActorNet, encoder_inputs
-from jsbsim_env.control.observation import GOAL_NAMES, ActionError
+from jsbsim_env.control.observation import ActionError
 from jsbsim_env.control.stack import ControlStack, StackSettings
-from jsbsim_env.sim.core import N_STATE
 
 SHIPPED_POLICY = "solar_uav_policy.pt"  # in shipped/ beside this module, with its ONNX export
 ONNX_SOURCE_KEY = "policy_sha256"  # ONNX metadata: digest of the policy file the model was exported from
-MEASUREMENT_SHAPE = (N_STATE,)  # core.STATE_NAMES
-GOAL_SHAPE = (len(GOAL_NAMES),)  # roll, pitch rad; EAS m/s
 # An export beside a policy file is used only when it computes what the policy computes: its action
 # for a probe window within this of PyTorch's (the two agree to about 1e-6).
 ONNX_AGREEMENT_TOL = 1e-4
 
-
-# Measurements and goals beyond this are no measurements: scaled into the network's float32 window
-# (by factors up to about 6) they would overflow to infinity.
-_LARGEST_INPUT = 1e30
 
 
 class PolicyFileError(RuntimeError):
@@ -280,6 +274,8 @@ class PolicyRuntime:
             check_aircraft(self.meta, path, self.aircraft)
         settings = self.meta["stack"]
         self.stack = ControlStack(settings.network_alone() if network_alone else settings, self.aircraft)
+        self.limits = InputLimits(self.aircraft)
+        self.interval_limits_s = learned_interval_s()
         self.window = self.stack.settings.window_steps
         self.observation_size = self.stack.settings.observation_size
         self.backend = backend
@@ -345,24 +341,15 @@ class PolicyRuntime:
         """Actuator command (aileron, elevator, rudder in deg, throttle) for a measured state
         (``core.STATE_NAMES``) and goal (roll, pitch in rad, EAS in m/s); ``dt_s``, the control
         interval, is needed by a policy that flies with trims. A measurement or goal of another
-        shape, or not finite, and an interval that is not positive and finite are refused
-        (``ValueError``) before any stage moves: the network would map them to some finite command."""
-        measurement, goal = np.asarray(measurement, dtype=float), np.asarray(goal, dtype=float)
-        if measurement.shape != MEASUREMENT_SHAPE or goal.shape != GOAL_SHAPE:  # a zip would truncate a longer one
-            raise ValueError(_shape_error(measurement.shape, goal.shape))
-        # On plain floats throughout: numpy's per-call overhead would cost more than the arithmetic.
-        m, asked = measurement.tolist(), goal.tolist()
-        # One sum of plain floats is not finite if any value is not, at a fraction of np.isfinite's cost;
-        # a finite value too large for the network's float32 would still become infinite in its window.
-        if not math.isfinite(sum(m) + sum(asked)) or max(max(m), max(asked)) > _LARGEST_INPUT \
-                or min(min(m), min(asked)) < -_LARGEST_INPUT:
-            raise ValueError(f"measurement {m} or goal {asked} is not finite, or beyond ±{_LARGEST_INPUT:g}")
-        if self.stack.needs_interval:
-            if dt_s is None:
-                raise ValueError("this policy flies with a surface or goal trim: give act() the control interval "
-                                 "dt_s")
-            if not 0.0 < dt_s < math.inf:  # NaN fails too; checked before the first step's stages move
-                raise ValueError(f"control interval must be positive and finite, got {dt_s} s")
+        shape, or outside what the aircraft and the task make possible, and an interval that is no
+        real number of seconds within the task's intervals (``input_checks``: each with its margin)
+        are refused (``ValueError`` naming the value, its unit and the limit) before any stage
+        moves: the network would map them to some finite command."""
+        m, asked = self.limits.check(measurement, goal)  # plain floats: numpy's per-call overhead costs more
+        if dt_s is not None:
+            dt_s = check_interval(dt_s, self.interval_limits_s, "learned controller")
+        elif self.stack.needs_interval:
+            raise ValueError("this policy flies with a surface or goal trim: give act() the control interval dt_s")
         raw = self.action(self.stack.observe(m, asked, dt_s)).tolist()
         action = [min(max(x, -1.0), 1.0) for x in raw]  # a NaN stays NaN
         if not all(-1.0 <= x <= 1.0 for x in action):
@@ -390,15 +377,6 @@ class PolicyRuntime:
         if not math.isfinite(sum(frame.tolist())):
             raise ValueError(f"observation {frame.tolist()} is not finite")
         return frame
-
-
-def _shape_error(measurement_shape: tuple, goal_shape: tuple) -> str:
-    """The message that refuses a measurement or goal of the wrong shape, naming each one that is."""
-    wrong = [f"{name} must have shape {want} ({what}), got {got}"
-             for name, want, got, what in (("measurement", MEASUREMENT_SHAPE, measurement_shape, "core.STATE_NAMES"),
-                                           ("goal", GOAL_SHAPE, goal_shape, "roll, pitch rad; EAS m/s"))
-             if got != want]
-    return "; ".join(wrong)
 
 
 def _ort_session(path: Path):

@@ -36,8 +36,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from aircraft import Aircraft
 from jsbsim_env.control.gain_files import gain_file
+from jsbsim_env.control.input_checks import GOAL_HIGH, GOAL_LOW, goal_range  # noqa: F401 - the task's, kept here too
 from jsbsim_env.control.integrals import ErrorIntegrals, check_error_integrals
 from jsbsim_env.control.observation import (
     ACTION_OFFSET,
@@ -66,15 +66,6 @@ from jsbsim_env.sim.core import (
 )
 from jsbsim_env.sim.model_check import SCALED_TERMS
 
-GOAL_LOW = np.array([math.radians(-5.0), math.radians(-10.0), 8.0])
-GOAL_HIGH = np.array([math.radians(5.0), math.radians(10.0), 12.0])
-
-
-def goal_range(aircraft: Aircraft) -> tuple[np.ndarray, np.ndarray]:
-    """The goals drawn for ``aircraft``: roll and pitch as ``GOAL_LOW``/``GOAL_HIGH`` (rad), EAS over
-    its envelope (m/s; the paper's aircraft's: 8 to 12 m/s, ``GOAL_LOW``/``GOAL_HIGH`` themselves)."""
-    low, high = aircraft.eas_range_mps
-    return np.array([GOAL_LOW[0], GOAL_LOW[1], low]), np.array([GOAL_HIGH[0], GOAL_HIGH[1], high])
 _DEG = math.degrees(1.0)
 
 
