@@ -50,6 +50,7 @@ from training.runtime import (
 # The files a bench writes to --out (an earlier bench's are refused, or replaced with --overwrite).
 RESULTS = ("summary.json", "frames.npz", "loop_bench.png")
 MAX_DURATION_S = 3600.0  # jsbsim_env.bench.plant.MAX_DURATION_S (not imported here: it loads pymavlink)
+MIN_DURATION_S = 2.0  # jsbsim_env.bench.plant.MIN_DURATION_S: the shortest flight whose RMSE means something
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -60,7 +61,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the controller process flies this (factory.CONTROLLER_NAMES)")
     p.add_argument("--policy", default=None, help="policy file (.pt); the shipped policy when omitted")
     add_aircraft_options(p, "the route flies at the middle of its envelope")
-    p.add_argument("--duration", type=number_type(float, 0.0, MAX_DURATION_S, low_open=True, unit="s"), default=60.0,
+    p.add_argument("--duration", type=number_type(float, MIN_DURATION_S, MAX_DURATION_S, unit="s"), default=60.0,
                    help="flight time, s")
     p.add_argument("--baud", type=positive_int, default=115_200,
                    help="line rate, bit/s (10 bits a byte; in real time, fast enough for a frame's round trip)")

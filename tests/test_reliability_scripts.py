@@ -254,8 +254,9 @@ def loop_bench(load_script, monkeypatch):
 @pytest.mark.parametrize(("argv", "says"), [
     (["--timeout-frames", "-1"], "--timeout-frames must be at least 0, got -1"),
     (["--recover-frames", "0"], "--recover-frames must be at least 1, got 0"),
-    (["--duration", "nan"], "--duration must be in (0, 3600] s, got nan"),
-    (["--duration", "0"], "--duration must be in (0, 3600] s, got 0"),
+    (["--duration", "nan"], "--duration must be in [2, 3600] s, got nan"),
+    (["--duration", "0"], "--duration must be in [2, 3600] s, got 0"),
+    (["--duration", "1e-300"], "--duration must be in [2, 3600] s, got 1e-300"),  # one frame, RMSE 0.000
     (["--baud", "0"], "--baud must be at least 1, got 0"),
     (["--seed", "-1"], "--seed must be at least 0, got -1"),
     (["--faults", "delay_ms=1e9"], "fault delay_ms=1e+09 is more than the line can carry in time"),
@@ -281,11 +282,14 @@ def test_loop_bench_refuses_a_meaningless_number_in_one_line_before_the_controll
 
 def test_the_loop_bench_duration_limit_is_the_plants(load_script):
     pytest.importorskip("pymavlink")
-    from jsbsim_env.bench.plant import MAX_DURATION_S, BenchConfig
+    from jsbsim_env.bench.plant import MAX_DURATION_S, MIN_DURATION_S, BenchConfig
 
     assert load_script("loop_bench").MAX_DURATION_S == MAX_DURATION_S
-    with pytest.raises(ValueError, match="at most 3600 s"):
+    assert load_script("loop_bench").MIN_DURATION_S == MIN_DURATION_S
+    with pytest.raises(ValueError, match="2 to 3600 s"):
         BenchConfig(duration_s=MAX_DURATION_S + 1)
+    with pytest.raises(ValueError, match=r"2 to 3600 s \(the shortest flight whose RMSE means something"):
+        BenchConfig(duration_s=1e-300)
 
 
 def test_a_controller_process_killed_mid_flight_is_survived_and_recorded(load_script, monkeypatch, tmp_path, capsys):

@@ -65,6 +65,9 @@ NETWORK, HOLD, PID = 0, 1, 2
 SOURCE_NAMES = ("network", "hold", "pid")
 COMMAND_BYTES = 40  # a HIL_ACTUATOR_CONTROLS frame is 44 bytes; shorter chunks are heartbeats or pieces
 MAX_DURATION_S = 3600.0  # an hour of flight: the route's turbulence for it is made up front (a day: 2.7 GB)
+# The shortest flight whose RMSE means something: 50 frames at 25 Hz, many times the 40-120 ms the
+# controller's commands take to act, so that the errors it reports are the controller's.
+MIN_DURATION_S = 2.0
 
 
 def frame_line_bytes() -> int:
@@ -143,8 +146,10 @@ class BenchConfig:
             raise ValueError(f"mode must be 'realtime' or 'lockstep', got {self.mode!r}")
         if self.controller not in CONTROLLER_NAMES:
             raise ValueError(f"controller must be one of {', '.join(CONTROLLER_NAMES)}, got {self.controller!r}")
-        if not 0.0 < self.duration_s <= MAX_DURATION_S:  # NaN fails too
-            raise ValueError(f"duration must be positive and at most {MAX_DURATION_S:g} s, got {self.duration_s} s")
+        if not MIN_DURATION_S <= self.duration_s <= MAX_DURATION_S:  # NaN fails too
+            raise ValueError(f"duration must be {MIN_DURATION_S:g} to {MAX_DURATION_S:g} s (the shortest flight whose "
+                             f"RMSE means something, the longest whose turbulence is made up front), "
+                             f"got {self.duration_s:g} s")
         for name, low in (("baud", 1), ("seed", 0), ("timeout_frames", 0), ("recover_frames", 1)):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
