@@ -110,6 +110,13 @@ class Aircraft:
         """``model_fingerprint`` of its folder: what tells one aircraft from another."""
         return model_fingerprint(folder=self.folder)
 
+    def matches_model(self, recorded: str) -> bool:
+        """Whether ``recorded``, a fingerprint a training record or policy file keeps, is this
+        aircraft's. A record made before the envelope joined the fingerprint keeps the XML files'
+        alone (``model_fingerprint(envelope=False)``): it matches an aircraft with the same XML
+        files, and cannot tell an edited envelope (a new record can)."""
+        return recorded == self.fingerprint or recorded == model_fingerprint(folder=self.folder, envelope=False)
+
     @property
     def sample_altitudes_m(self) -> tuple[float, float, float]:
         """Three altitudes that span the envelope: 5 % up from its floor, its middle, its ceiling
@@ -206,10 +213,12 @@ def load_aircraft(spec: str | Path | Aircraft | None = None) -> Aircraft:
     return _load(_aircraft_folder(str(spec)))
 
 
-def model_fingerprint(name: str = AIRCRAFT_NAME, folder: Path | None = None) -> str:
+def model_fingerprint(name: str = AIRCRAFT_NAME, folder: Path | None = None, envelope: bool = True) -> str:
     """SHA-256 of an aircraft's model: every XML file of its folder (``folder``, or the packaged
     aircraft ``name``) but the initial conditions, with its path relative to the folder, and
-    without what only documents it (comments, the file header, the release status).
+    without what only documents it (comments, the file header, the release status); then, unless
+    not ``envelope``, where it flies (``ENVELOPE_FILE``'s values, without its ``about`` line):
+    its altitude and EAS ranges and surface travel decide what it is trained and flown in.
 
     Two aircraft with the same fingerprint fly alike; training records keep it, so that a
     controller can be told apart from the aircraft it was not trained on.
@@ -221,6 +230,15 @@ def model_fingerprint(name: str = AIRCRAFT_NAME, folder: Path | None = None) -> 
         if ET.fromstring(data).tag == "initialize":  # where a flight starts, not how it flies
             continue
         digest.update(path.relative_to(folder).as_posix().encode() + b"\0" + _flying_part(data) + b"\0")
+    where = folder / ENVELOPE_FILE
+    if envelope and where.is_file():
+        try:
+            values = json.loads(where.read_text())
+        except ValueError:  # unreadable: its bytes, which ``load_aircraft`` refuses anyway
+            values = where.read_bytes().decode("latin-1")
+        if isinstance(values, dict):
+            values = {k: v for k, v in values.items() if k != "about"}
+        digest.update(ENVELOPE_FILE.encode() + b"\0" + json.dumps(values, sort_keys=True).encode() + b"\0")
     return digest.hexdigest()
 
 

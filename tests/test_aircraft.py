@@ -284,3 +284,28 @@ def test_a_new_simulation_does_not_depend_on_what_the_heap_held():
         s.set_initial_conditions(1000.0, 10.5)
         assert math.isfinite(s["accelerations/wdot-ft_sec2"])
         assert all(math.isfinite(s[f"fcs/esc-{i}-power-norm"]) for i in range(s.engine_count))
+
+
+def test_the_envelope_is_part_of_the_fingerprint_and_an_older_record_still_matches_its_aircraft(tmp_path):
+    import json
+
+    from jsbsim_env.control.policy import WrongAircraftError, check_aircraft, load_policy, shipped_policy_path
+
+    folders = {}
+    for which in ("as_built", "edited"):
+        folders[which] = folder = tmp_path / which / "aircraft" / "solar_uav"
+        shutil.copytree(aircraft.aircraft_dir(), folder)
+    envelope = folders["edited"] / aircraft.ENVELOPE_FILE
+    values = json.loads(envelope.read_text())
+    values["altitude_range_m"] = [0.0, 30000.0]
+    envelope.write_text(json.dumps(values))
+    built, edited = aircraft.load_aircraft(folders["as_built"]), aircraft.load_aircraft(folders["edited"])
+    assert built.fingerprint == aircraft.model_fingerprint() != edited.fingerprint
+    trained = {"aircraft": "solar_uav", "aircraft_model": built.fingerprint}
+    check_aircraft(trained, tmp_path / "policy.pt", built)
+    with pytest.raises(WrongAircraftError, match="trained on solar_uav"):
+        check_aircraft(trained, tmp_path / "policy.pt", edited)
+    # A record from before the envelope joined the fingerprint keeps the XML files' alone: it matches.
+    older = {"aircraft": "solar_uav", "aircraft_model": aircraft.model_fingerprint(envelope=False)}
+    check_aircraft(older, tmp_path / "policy.pt", built)
+    check_aircraft(load_policy(shipped_policy_path())[1], shipped_policy_path(), aircraft.load_aircraft())

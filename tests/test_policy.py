@@ -11,8 +11,8 @@ import torch
 
 from jsbsim_env.control.checked_io import atomic_save, checked_load
 from jsbsim_env.control.observation import OBS_SIZE, ActionError, action_to_command
-from jsbsim_env.control.policy import PolicyFileError, PolicyRuntime, export_onnx, load_policy
-from jsbsim_env.control.stack import StackSettings
+from jsbsim_env.control.policy import PolicyFileError, PolicyRuntime, export_onnx, load_policy, shipped_policy_path
+from jsbsim_env.control.stack import FLIGHT_STACKS, StackSettings
 from jsbsim_env.task.attitude import AttitudeTask, TaskConfig
 from jsbsim_env.task.versions import LATEST, V0, V1, V3
 
@@ -263,12 +263,14 @@ def test_ship_policy_needs_the_runs_first_command_and_commit(policy_file, tmp_pa
                                              (dataclasses.replace(V1.task, external_throttle=0.0),
                                               StackSettings(8, 0.0, V1.task.surface_trim_gain))],
                          ids=["network alone", "surface trim"])
-def test_the_runtime_flying_from_measurements_sees_the_tasks_observations(policy_file, tmp_path, task, stack):
+def test_the_runtime_flying_from_measurements_sees_the_tasks_observations(policy_file, tmp_path, task, stack,
+                                                                          monkeypatch):
     """The task and the runtime run the same stages: a policy flown by ``PolicyRuntime.act`` from
     the task's measurements and goals is given the observations the task computes (with the task's
     surface trims taken off the observed surfaces, where it has them), in the window training's
     ``CatFrames`` keeps, and its commands, trims included, are those the task flies."""
-    path = _with(policy_file, tmp_path, stack=stack.to_dict())
+    monkeypatch.setitem(FLIGHT_STACKS, "stages-under-test", stack)  # a file's stack is its task version's
+    path = _with(policy_file, tmp_path, stack=stack.to_dict(), task="stages-under-test")
     runtime = PolicyRuntime(path, backend="torch")
     windows, actions = [], []
     network = runtime.action
@@ -299,3 +301,28 @@ def test_the_runtime_flying_from_measurements_sees_the_tasks_observations(policy
         seen.append(obs)
     if stack.surface_trim_gain:
         assert min(abs(t) for t in runtime.stack.surface_trim.trim_deg) > 0.01  # both trims moved
+
+
+@pytest.mark.parametrize(("edit", "named"), [
+    ({"stack": {**V1.flight_stack.to_dict(), "window_steps": 2}}, r"its stack .* is not the one .*-v1 flies with"),
+    ({"task": "SolarUAVAttitude-v99"}, r"task 'SolarUAVAttitude-v99' is not a task version of this package"),
+    ({"drop": ("aircraft", "aircraft_model")}, r"records its task but not aircraft or aircraft_model"),
+    ({"drop": ("aircraft_model",)}, r"records its task but not aircraft_model"),
+    ({"aircraft_model": "0" * 12}, r"aircraft_model must be a 64-hex fingerprint"),
+    ({"frames": -5}, r"frames must be a whole number >= 0, got -5"),
+    ({"seed": "1"}, r"seed must be a whole number, got '1'"),
+])
+def test_an_edited_policy_record_is_refused_naming_the_field(policy_file, tmp_path, edit, named):
+    edit = dict(edit)
+    path = _with(policy_file, tmp_path, drop=edit.pop("drop", ()), **edit)
+    with pytest.raises(PolicyFileError, match=named + ".*not a policy file as the trainer writes it"):
+        load_policy(path)
+
+
+def test_a_policy_record_rewritten_without_its_checksum_is_refused(policy_file, tmp_path):
+    """An edit by hand (``torch.save``) writes no checksum: a file that records its task always has one."""
+    data = checked_load(policy_file)
+    torch.save(data, tmp_path / "policy.pt")
+    with pytest.raises(PolicyFileError, match="written without the SHA-256 of its contents"):
+        load_policy(tmp_path / "policy.pt")
+    load_policy(shipped_policy_path())  # written before the task was recorded: its flat settings, checked as such

@@ -21,6 +21,7 @@ import hashlib
 import json
 import math
 import os
+import re
 import tempfile
 import warnings
 from importlib import resources
@@ -31,11 +32,11 @@ import torch
 from torch import nn
 
 from aircraft import AIRCRAFT_NAME, Aircraft, load_aircraft
-from jsbsim_env.control.checked_io import DamagedFileError, checked_load, non_finite_entries
+from jsbsim_env.control.checked_io import MAGIC, DamagedFileError, checked_load, non_finite_entries
 from jsbsim_env.control.input_checks import InputLimits, check_interval, learned_interval_s
 from jsbsim_env.control.network import ENCODERS, ActorNet, encoder_inputs
 from jsbsim_env.control.observation import ActionError
-from jsbsim_env.control.stack import ControlStack, StackSettings
+from jsbsim_env.control.stack import FLIGHT_STACKS, ControlStack, StackSettings
 
 SHIPPED_POLICY = "solar_uav_policy.pt"  # in shipped/ beside this module, with its ONNX export
 ONNX_SOURCE_KEY = "policy_sha256"  # ONNX metadata: digest of the policy file the model was exported from
@@ -79,7 +80,7 @@ def check_aircraft(meta: dict, path: Path, flown: Aircraft) -> None:
         same = flown.papers
         trained = f"{name} (a file that records no model)"
     else:
-        same = model == flown.fingerprint
+        same = flown.matches_model(model)
         trained = f"{name} (model {model[:12]})"
     if not same:
         raise WrongAircraftError(f"{path} was trained on {trained} and would fly {flown.describe()} (model "
@@ -131,6 +132,49 @@ def stack_settings_of(data: dict, path: Path) -> StackSettings:
                          surface_trim_gain=float(flat["integral_trim"]))
 
 
+_FINGERPRINT = re.compile(r"[0-9a-f]{64}")
+
+
+def check_record(data: dict, path: Path, stack: StackSettings) -> None:
+    """Refuse (``PolicyFileError``, naming the field) a policy file whose record is not what the
+    trainer writes (``Trainer.save_policy``): a task version this package does not have, a stack
+    other than its task version's (``stack.FLIGHT_STACKS``), a file that records its task but not
+    the aircraft it was trained on (name and 64-hex model fingerprint), frames or a seed that are
+    no whole numbers. A file that records its task was written with the SHA-256 of its contents
+    (``checked_io``): one without it (a plain ``torch.save``, as an edit by hand writes) is refused,
+    so that the record which identifies the policy is always covered by its checksum. Files from
+    before the task was recorded (the shipped policy) keep their flat settings, read by
+    ``stack_settings_of``."""
+    def refuse(why: str) -> PolicyFileError:
+        return PolicyFileError(f"{path}: {why}; it is not a policy file as the trainer writes it (edited?): "
+                               "train or ship it again")
+
+    for key in ("frames", "seed"):
+        value = data.get(key, 0)
+        if isinstance(value, bool) or not isinstance(value, int) or (key == "frames" and value < 0):
+            raise refuse(f"{key} must be a whole number{' >= 0' if key == 'frames' else ''}, got {value!r}")
+    if "aircraft" in data and not isinstance(data["aircraft"], str):
+        raise refuse(f"aircraft must be a name, got {data['aircraft']!r}")
+    if "aircraft_model" in data and not (isinstance(data["aircraft_model"], str)
+                                         and _FINGERPRINT.fullmatch(data["aircraft_model"])):
+        raise refuse(f"aircraft_model must be a 64-hex fingerprint, got {data['aircraft_model']!r}")
+    if "task" not in data:
+        if "stack" in data:  # written by the trainer since it records the task
+            raise refuse("it records its stack but not its task version")
+        return
+    task = data["task"]
+    if task not in FLIGHT_STACKS:
+        raise refuse(f"task {task!r} is not a task version of this package ({', '.join(FLIGHT_STACKS)})")
+    if stack != FLIGHT_STACKS[task]:
+        raise refuse(f"its stack {stack.to_dict()} is not the one {task} flies with ({FLIGHT_STACKS[task].to_dict()})")
+    missing = [key for key in ("aircraft", "aircraft_model") if key not in data]
+    if missing:
+        raise refuse(f"it records its task but not {' or '.join(missing)}, the aircraft it was trained on")
+    with path.open("rb") as fh:
+        if fh.read(len(MAGIC)) != MAGIC:
+            raise refuse("it records its task but was written without the SHA-256 of its contents")
+
+
 def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
     """The deterministic actor and the metadata saved with it (``Trainer.save_policy``); the
     metadata's ``stack`` is the ``StackSettings`` it flies with."""
@@ -170,6 +214,7 @@ def load_policy(path: Path | str) -> tuple[DeterministicActor, dict]:
         net = ActorNet(data["network"]["lstm_hidden"], data["network"]["mlp_hidden"], obs_size=inputs, encoder=kind,
                        window=stack.window_steps)
         net.load_state_dict(state)
+        check_record(data, path, stack)  # after the network's sizes, which name what an edit broke
     except PolicyFileError:
         raise
     except Exception as err:  # missing keys and shape mismatches all mean the same here

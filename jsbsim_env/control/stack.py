@@ -201,4 +201,19 @@ class ControlStack:
         return command
 
 
-__all__ = ["ControlStack", "StackSettings", "observation_row"]
+# The residual versions' correction: a quarter of each surface's travel (and of half the throttle range).
+RESIDUAL_AUTHORITY = 0.25
+# The stack each registered task version (``jsbsim_env.task.versions``) flies with, by its id: what a
+# policy file that records the version must record as its stack (``policy.load_policy``).
+_GOAL_AND_SURFACE_TRIM = StackSettings(window_steps=8, goal_trim_time_constant_s=20.0, surface_trim_gain=2.0)
+FLIGHT_STACKS = {
+    "SolarUAVAttitude-v0": StackSettings(),
+    "SolarUAVAttitude-v1": _GOAL_AND_SURFACE_TRIM,
+    "SolarUAVAttitude-v2": _GOAL_AND_SURFACE_TRIM,
+    "SolarUAVAttitude-v3": StackSettings(window_steps=8, error_integrals=True),
+    "SolarUAVAttitude-v4": StackSettings(window_steps=8, residual_on="lqi", residual_authority=RESIDUAL_AUTHORITY),
+    "SolarUAVAttitude-v5": StackSettings(window_steps=8, residual_on="lqi_tuned",
+                                         residual_authority=RESIDUAL_AUTHORITY),
+}
+
+__all__ = ["FLIGHT_STACKS", "RESIDUAL_AUTHORITY", "ControlStack", "StackSettings", "observation_row"]

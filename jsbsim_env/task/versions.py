@@ -19,14 +19,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from jsbsim_env.control.stack import StackSettings
+from jsbsim_env.control.stack import FLIGHT_STACKS, RESIDUAL_AUTHORITY, StackSettings
 from jsbsim_env.sim.core import CoreConfig
 from jsbsim_env.task.attitude import TaskConfig
 
 # The settings of the stages around the network, which the task and the flight stack both hold.
 _STAGES = ("surface_trim_gain", "goal_trim_time_constant_s", "error_integrals", "residual_on", "residual_authority")
-# The residual versions' correction: a quarter of each surface's travel (and of half the throttle range).
-RESIDUAL_AUTHORITY = 0.25
 
 
 @dataclass(frozen=True)
@@ -48,20 +46,17 @@ def trained_as_flown(env_id: str, task: TaskConfig, stack: StackSettings) -> Tas
     return TaskVersion(env_id, replace(task, **{name: getattr(stack, name) for name in _STAGES}), stack)
 
 
-V0 = TaskVersion("SolarUAVAttitude-v0", TaskConfig(), StackSettings())
+# Each version's flight stack is ``control.stack.FLIGHT_STACKS``'s, which policy files are checked against.
+V0 = TaskVersion("SolarUAVAttitude-v0", TaskConfig(), FLIGHT_STACKS["SolarUAVAttitude-v0"])
 V1 = TaskVersion(
     "SolarUAVAttitude-v1",
     TaskConfig(core=CoreConfig(delay_s=(0.040, 0.120)),
                surface_trim_gain=0.5, sideslip_weight=6.0, roll_weight=2.0, pitch_weight=2.0, penalty_tail=0.1,
                external_throttle=0.3),
-    StackSettings(window_steps=8, goal_trim_time_constant_s=20.0, surface_trim_gain=2.0),
+    FLIGHT_STACKS["SolarUAVAttitude-v1"],
 )
-V2 = trained_as_flown("SolarUAVAttitude-v2", V1.task, V1.flight_stack)
-V3 = trained_as_flown("SolarUAVAttitude-v3", V1.task, StackSettings(window_steps=8, error_integrals=True))
-V4 = trained_as_flown("SolarUAVAttitude-v4", V1.task,
-                      StackSettings(window_steps=8, residual_on="lqi", residual_authority=RESIDUAL_AUTHORITY))
-V5 = trained_as_flown("SolarUAVAttitude-v5", V1.task,
-                      StackSettings(window_steps=8, residual_on="lqi_tuned", residual_authority=RESIDUAL_AUTHORITY))
+V2, V3, V4, V5 = (trained_as_flown(f"SolarUAVAttitude-v{n}", V1.task, FLIGHT_STACKS[f"SolarUAVAttitude-v{n}"])
+                  for n in (2, 3, 4, 5))
 VERSIONS = {v.env_id: v for v in (V0, V1, V2, V3, V4, V5)}
 LATEST = V1.env_id
 
@@ -75,4 +70,4 @@ def task_version(env_id: str) -> TaskVersion:
                          f"(it has {', '.join(VERSIONS)})") from None
 
 
-__all__ = ["LATEST", "VERSIONS", "TaskVersion", "task_version", "trained_as_flown"]
+__all__ = ["LATEST", "RESIDUAL_AUTHORITY", "VERSIONS", "TaskVersion", "task_version", "trained_as_flown"]
