@@ -32,7 +32,7 @@ import numpy as np
 # Only numpy and training.runtime (no torch, no simulation) load before the arguments are parsed,
 # so that a mistyped option is refused at once; the flights' modules load where they are flown.
 from training.output_folders import read_json, write_json_atomic, write_text_atomic
-from training.runtime import OutputFolderError, ScriptParser, check_output_folder, positive_int, run_command
+from training.runtime import OutputFolderError, ScriptParser, check_output_folder, episodes_int, run_command
 
 # Scorecard sections (named by the key each adds to the scorecard) and the report experiments
 # they are flown with; a cached scorecard that lacks a section gets only that section's flights.
@@ -266,7 +266,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("runs", type=Path, nargs="*",
                         help="run folders, each with best_policy.pt (none: --markdown prints the record of every "
                              "candidate tried)")
-    parser.add_argument("--episodes", type=positive_int, default=50, help="evaluation-suite episodes per run")
+    parser.add_argument("--episodes", type=episodes_int, default=50, help="evaluation-suite episodes per run")
     parser.add_argument("--pid", type=Path, metavar="DIR", help="also score the PID, its flights in DIR")
     output = parser.add_mutually_exclusive_group()
     output.add_argument("--json", action="store_true", help="print every scorecard as JSON (the default)")

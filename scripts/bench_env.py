@@ -31,7 +31,7 @@ from jsbsim_env.control.observation import ACTION_OFFSET, ACTION_SCALE, command_
 from jsbsim_env.sim.core import CoreConfig, FlightCore
 from jsbsim_env.sim.trim_table import TrimTable
 from jsbsim_env.task.attitude import AttitudeTask
-from training.runtime import ScriptParser, non_negative_int, positive_float, positive_int, run_command
+from training.runtime import ScriptParser, non_negative_int, number_type, positive_float, rounds_int, run_command
 from training.workers import process_pool
 
 # torch and TorchRL (SolarUAVAttitudeEnv) load in the functions that use them, after the arguments
@@ -134,8 +134,8 @@ def processes_rate(processes: int, batch: int, seconds: float, seed: int) -> flo
 def main(argv: list[str] | None = None) -> None:
     parser = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
     parser.add_argument("--seconds", type=positive_float, default=100.0, help="simulated seconds per measurement and aircraft")
-    parser.add_argument("--rounds", type=positive_int, default=3, help="repeats of each measurement; the median is reported")
-    parser.add_argument("--batch", type=positive_int, nargs="+", default=[8, 32], help="aircraft per batched environment")
+    parser.add_argument("--rounds", type=rounds_int, default=3, help="repeats of each measurement; the median is reported")
+    parser.add_argument("--batch", type=number_type(int, 1, 4096), nargs="+", default=[8, 32], help="aircraft per batched environment")
     parser.add_argument("--processes", type=non_negative_int, default=2,
                         help="processes for the multi-process figure (0 or 1: skip it)")
     parser.add_argument("--json", action="store_true", help="print the figures as JSON")

@@ -16,7 +16,7 @@ import time
 import jsbsim
 
 import aircraft
-from training.runtime import ScriptParser, positive_int, run_command
+from training.runtime import ScriptParser, number_type, rounds_int, run_command
 
 SIM_RATE_HZ = 120.0
 
@@ -54,8 +54,8 @@ def steps_per_second(fdm, steps: int) -> float:
 
 def main(argv: list[str] | None = None) -> None:
     parser = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
-    parser.add_argument("--steps", type=positive_int, default=3000, help="fdm.run() calls per round and aircraft")
-    parser.add_argument("--rounds", type=positive_int, default=7, help="repeats of each measurement; the median is reported")
+    parser.add_argument("--steps", type=number_type(int, 1, 10_000_000), default=3000, help="fdm.run() calls per round and aircraft")
+    parser.add_argument("--rounds", type=rounds_int, default=7, help="repeats of each measurement; the median is reported")
     parser.add_argument("--json", action="store_true", help="print the figures as JSON")
     args = parser.parse_args(argv)
     os.environ.setdefault("JSBSIM_DEBUG", "0")

@@ -19,7 +19,8 @@ import time
 from training.runtime import (
     ScriptParser,
     non_negative_int,
-    positive_int,
+    number_type,
+    rounds_int,
     run_command,
     torchrl_logs_to_stderr,
     tune_allocator,
@@ -31,8 +32,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--device", default="cpu", help="torch device the update runs on (cpu, or cuda where a GPU is present)")
     parser.add_argument("--threads", type=non_negative_int, default=1,
                         help="torch threads (1, as training; 0: torch's default, all cores)")
-    parser.add_argument("--updates", type=positive_int, default=30, help="updates timed per round")
-    parser.add_argument("--rounds", type=positive_int, default=3, help="repeats of each measurement; the median is reported")
+    parser.add_argument("--updates", type=number_type(int, 1, 1_000_000), default=30, help="updates timed per round")
+    parser.add_argument("--rounds", type=rounds_int, default=3, help="repeats of each measurement; the median is reported")
     parser.add_argument("--json", action="store_true", help="print the figures as JSON")
     args = parser.parse_args(argv)
     torchrl_logs_to_stderr()

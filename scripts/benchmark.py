@@ -59,8 +59,8 @@ from training.runtime import (
     available_cores,
     name_list,
     number_type,
-    positive_int,
     run_command,
+    workers_int,
 )
 from training.workers import pool_size
 
@@ -90,7 +90,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--overwrite", action="store_true", help="replace the results of an earlier benchmark in --out")
     p.add_argument("--backend", choices=("local", "ray"), default="local",
                    help="local: a process pool; ray: Ray tasks (pip install '.[ray]'); the same numbers")
-    p.add_argument("--workers", type=positive_int, default=available_cores(),
+    p.add_argument("--workers", type=workers_int, default=available_cores(),
                    help="processes of the local backend (default: this machine's cores)")
     p.add_argument("--address", default=None, help="ray backend: a cluster's address ('auto': this machine's); "
                                                    "a local Ray instance when omitted")

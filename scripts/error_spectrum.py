@@ -15,7 +15,7 @@ from __future__ import annotations
 import sys
 
 from jsbsim_env.control.factory import CONTROLLER_NAMES
-from training.runtime import ScriptParser, name_list, number_type, positive_int, run_command
+from training.runtime import ScriptParser, episodes_int, name_list, number_type, run_command
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -24,7 +24,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--policy", default=None, help="policy file of the policy controller (the shipped one when omitted)")
     parser.add_argument("--altitude-m", type=number_type(float, 0.0, 20000.0, unit="m"), default=10000.0,
                         help="the turbulence flight's altitude (the benchmark's: 1000, 10000, 20000)")
-    parser.add_argument("--episodes", type=positive_int, default=3, help="validation realisations, from the first")
+    parser.add_argument("--episodes", type=episodes_int, default=3, help="validation realisations, from the first")
     args = parser.parse_args(argv)
     try:
         names = name_list(args.controllers, CONTROLLER_NAMES, "--controllers")
@@ -34,7 +34,15 @@ def main(argv: list[str] | None = None) -> int:
 
     import numpy as np
 
-    from jsbsim_env.control.factory import make_controller
+    from jsbsim_env.control.factory import check_flyable, make_controller
+    from jsbsim_env.control.gain_files import GainsMissing
+    from jsbsim_env.control.policy import PolicyFileError, shipped_policy_path
+
+    try:  # every gain table and policy file read and checked once, before any flight
+        check_flyable(names, policies={"policy": args.policy or shipped_policy_path()} if "policy" in names else None)
+    except (PolicyFileError, GainsMissing, ValueError) as err:
+        print(f"error_spectrum: {err}", file=sys.stderr)
+        return 2
     from jsbsim_env.missions import fly_route
     from jsbsim_env.sim.trim_table import TrimTable
     from training.evaluation.benchmark import BenchJob, BenchmarkPlan, route_config

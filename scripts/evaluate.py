@@ -26,7 +26,7 @@ from pathlib import Path
 # Only the standard library and training.runtime (no torch) load before the arguments are parsed,
 # so that a mistyped option is refused at once; the simulation and the networks load in main().
 from training.output_folders import OutputFolder, writing
-from training.runtime import OutputFolderError, ScriptParser, add_aircraft_options, positive_int, run_command
+from training.runtime import OutputFolderError, ScriptParser, add_aircraft_options, episodes_int, run_command
 
 SHIPPED, PID = "shipped", "PID"  # column names of --compare
 # The classical controllers' keys in the JSON output, and what it says about each.
@@ -80,7 +80,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="fly these policy files, the shipped policy and the PID on the same suite and print "
                              "one table, a column each (with --json: one object keyed by controller name)")
     add_aircraft_options(parser, "the doublets fly at the same fractions of its envelope, about its reference EAS")
-    parser.add_argument("--episodes", type=positive_int, default=DEFAULT_EPISODES,
+    parser.add_argument("--episodes", type=episodes_int, default=DEFAULT_EPISODES,
                         help="seeded training-style episodes (at least 1; the seeds are below)")
     parser.add_argument("--plots", type=Path, help="folder for the doublet plots (none when omitted)")
     parser.add_argument("--overwrite", action="store_true", help="replace the plots of an earlier evaluation in --plots")

@@ -42,7 +42,6 @@ from training.runtime import (
     add_aircraft_options,
     non_negative_int,
     number_type,
-    positive_int,
     run_command,
     seed_int,
 )
@@ -63,7 +62,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_aircraft_options(p, "the route flies at the middle of its envelope")
     p.add_argument("--duration", type=number_type(float, MIN_DURATION_S, MAX_DURATION_S, unit="s"), default=60.0,
                    help="flight time, s")
-    p.add_argument("--baud", type=positive_int, default=115_200,
+    p.add_argument("--baud", type=number_type(int, 1, 4_000_000), default=115_200,
                    help="line rate, bit/s (10 bits a byte; in real time, fast enough for a frame's round trip)")
     p.add_argument("--faults", default="",
                    help="comma-separated: drop=P, corrupt=P (per frame and direction), delay_ms=MS, "
@@ -72,7 +71,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=seed_int, default=0, help="seed of the flight (turbulence, noise) and of the faults")
     p.add_argument("--timeout-frames", type=non_negative_int, default=3,
                    help="frames the last command is held before the PID flies (0: the PID flies at the first miss)")
-    p.add_argument("--recover-frames", type=positive_int, default=5,
+    p.add_argument("--recover-frames", type=number_type(int, 1, 1000), default=5,
                    help="answers on time in a row before the controller flies again")
     p.add_argument("--no-compare", action="store_true", help="skip the in-process flight of the same route")
     p.add_argument("--out", default="runs/loop_bench", help="folder for summary.json, frames.npz, loop_bench.png")

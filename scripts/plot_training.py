@@ -15,7 +15,7 @@ import json
 from pathlib import Path
 
 from training.curves import load_curve, plot_curves, run_summary
-from training.runtime import OutputFolderError, ScriptParser, claim_output_file, positive_int, run_command
+from training.runtime import OutputFolderError, ScriptParser, claim_output_file, number_type, run_command
 
 __all__ = ["load_curve", "main", "run_summary"]
 
@@ -25,7 +25,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("runs", type=Path, nargs="+", help="run folders (each with progress.csv)")
     parser.add_argument("--out", type=Path, default=Path("fig8_training.png"), help="the figure to write")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing --out")
-    parser.add_argument("--final-evals", type=positive_int, default=3, help="evaluations averaged into the final return")
+    parser.add_argument("--final-evals", type=number_type(int, 1, 1000), default=3, help="evaluations averaged into the final return")
     args = parser.parse_args(argv)
     try:
         claim_output_file(args.out, args.overwrite)

@@ -26,7 +26,14 @@ import tempfile
 from pathlib import Path
 
 # torch and the simulation load in main(), after the arguments are parsed.
-from training.runtime import OutputFolderError, ScriptParser, check_output_folder, positive_int, run_command
+from training.runtime import (
+    OutputFolderError,
+    ScriptParser,
+    check_output_folder,
+    episodes_int,
+    run_command,
+    workers_int,
+)
 
 SHIPPED_DIR = Path(__file__).resolve().parents[1] / "jsbsim_env" / "control" / "shipped"
 STOP_SIGNALS = {signal.SIGINT, signal.SIGTERM}
@@ -49,8 +56,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("run_dir", type=Path)
     parser.add_argument("--command", help="the training command, for a run without sessions.jsonl")
     parser.add_argument("--commit", help="the commit it was trained at, for a run without sessions.jsonl")
-    parser.add_argument("--episodes", type=positive_int, default=50, help="evaluation-suite episodes for the record")
-    parser.add_argument("--cores", type=positive_int, help="CPU cores the run trained on, for a run whose sessions do not say")
+    parser.add_argument("--episodes", type=episodes_int, default=50, help="evaluation-suite episodes for the record")
+    parser.add_argument("--cores", type=workers_int, help="CPU cores the run trained on, for a run whose sessions do not say")
     args = parser.parse_args(argv)
     import torch
 

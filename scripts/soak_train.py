@@ -30,8 +30,8 @@ from training.runtime import (
     OutputFolderError,
     ScriptParser,
     check_output_folder,
+    number_type,
     positive_float,
-    positive_int,
     run_command,
     seed_int,
 )
@@ -147,8 +147,8 @@ def plot_memory(rows: np.ndarray, capacity: int, path: Path) -> None:
 def main(argv=None) -> int:
     p = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
     p.add_argument("--out", type=Path, required=True, help="soak folder (the run is OUT/run)")
-    p.add_argument("--frames", type=positive_int, default=1_000_000, help="env steps in all")
-    p.add_argument("--capacity", type=positive_int, default=200_000, help="replay capacity, transitions")
+    p.add_argument("--frames", type=number_type(int, 1, 1_000_000_000), default=1_000_000, help="env steps in all")
+    p.add_argument("--capacity", type=number_type(int, 1, 1_000_000_000), default=200_000, help="replay capacity, transitions")
     p.add_argument("--updates-per-step", type=positive_float, default=0.02, help="gradient steps per env step")
     p.add_argument("--sample-s", type=positive_float, default=20.0, help="seconds between memory samples")
     p.add_argument("--seed", type=seed_int, default=0, help="training seed")

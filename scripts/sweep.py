@@ -49,7 +49,14 @@ from training.evaluation.sweep import (
     run_ray,
 )
 from training.output_folders import OutputFolder, writing
-from training.runtime import OutputFolderError, ScriptParser, add_aircraft_options, positive_int, run_command
+from training.runtime import (
+    OutputFolderError,
+    ScriptParser,
+    add_aircraft_options,
+    episodes_int,
+    run_command,
+    workers_int,
+)
 from training.workers import pool_size
 
 # The files a sweep writes to --out (an earlier sweep's are refused, or replaced with --overwrite).
@@ -64,12 +71,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--controllers", default="policy,pid", help=f"comma-separated, any of: {', '.join(CONTROLLER_NAMES)}")
     add_aircraft_options(p, "the altitude and EAS axes take its envelope")
     p.add_argument("--policy", default=None, help="policy file (.pt); the shipped policy when omitted")
-    p.add_argument("--episodes", type=positive_int, default=10, help="seeded episodes per controller and condition")
+    p.add_argument("--episodes", type=episodes_int, default=10, help="seeded episodes per controller and condition")
     p.add_argument("--out", type=Path, default=Path("runs/sweep"), help="folder for the table, JSON and plots")
     p.add_argument("--overwrite", action="store_true", help="replace the results of an earlier sweep in --out")
     p.add_argument("--backend", choices=("local", "ray"), default="local",
                    help="local: a process pool; ray: Ray tasks (pip install '.[ray]')")
-    p.add_argument("--workers", type=positive_int, default=1, help="processes of the local backend")
+    p.add_argument("--workers", type=workers_int, default=1, help="processes of the local backend")
     p.add_argument("--address", default=None, help="ray backend: a cluster's address ('auto': this machine's); "
                                                    "a local Ray instance when omitted")
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")

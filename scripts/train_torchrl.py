@@ -28,7 +28,7 @@ from pathlib import Path
 # Only what the parser needs is imported here: torch and TorchRL load after the arguments are
 # parsed, so that a mistyped option is refused at once.
 from training.config import TrainConfig, check_run_name
-from training.runtime import ScriptParser, positive_int, run_command, torchrl_logs_to_stderr, tune_allocator
+from training.runtime import ScriptParser, run_command, torchrl_logs_to_stderr, tune_allocator, workers_int
 
 # Exit codes of a run stopped by a signal, as a shell reports them (128 + signal number).
 _SIGNAL_EXIT = {"SIGINT": 130, "SIGTERM": 143}
@@ -50,7 +50,7 @@ def main(argv: list[str] | None = None) -> int:
                                         "<run-name>_seed<N>; the same command again resumes them (default: one run)")
     parser.add_argument("--backend", choices=("local", "ray"), default="local",
                         help="with --seeds: local processes, or Ray tasks (pip install '.[ray]') (default: local)")
-    parser.add_argument("--workers", type=positive_int, default=1, help="with --seeds --backend local: processes (default: 1)")
+    parser.add_argument("--workers", type=workers_int, default=1, help="with --seeds --backend local: processes (default: 1)")
     parser.add_argument("--address", help="with --backend ray: a Ray cluster's address ('auto': this machine's; "
                                           "default: a local Ray instance)")
     TrainConfig.add_arguments(parser)

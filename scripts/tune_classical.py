@@ -3,13 +3,15 @@ Table 9 aircraft) with CMA-ES and a stated budget, and write the tuned gain tabl
 
     python scripts/tune_classical.py --controller pid --budget 100   # writes jsbsim_env/control/pid_tuned_gains.json
     python scripts/tune_classical.py --controller lqi --budget 100   # writes jsbsim_env/control/lqi_tuned_gains.json
+    python scripts/tune_classical.py --controller lqi --flights robust   # writes jsbsim_env/control/lqi_robust_gains.json
 
 The method is in ``training/evaluation/classical_tuning.py``: the parameters (multipliers of the
 PID's gain groups, or of the LQI's Bryson weights), the score (``heldout.relative_score`` against
 the shipped PID, the score the policy's selection uses), and the robustness cases a candidate must
 pass. The shipped tables (``pid_gains.json``, ``lqi_gains.json``) are never replaced; the tuned one
 records the budget actually spent (evaluations, flights per evaluation, wall-clock seconds, cores)
-and is flown as the controller ``pid_tuned`` or ``lqi_tuned`` (``jsbsim_env.control.factory``).
+and is flown as the controller ``pid_tuned`` or ``lqi_tuned`` (``pid_robust``, ``lqi_robust`` with
+``--flights robust``; ``jsbsim_env.control.factory``).
 Needs the ``cma`` package: ``pip install '.[tune]'``.
 """
 
@@ -18,7 +20,15 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from training.runtime import OutputFolderError, ScriptParser, claim_output_file, positive_int, run_command, seed_int
+from training.runtime import (
+    OutputFolderError,
+    ScriptParser,
+    claim_output_file,
+    number_type,
+    run_command,
+    seed_int,
+    workers_int,
+)
 
 DEFAULT_BUDGET = 100
 
@@ -26,16 +36,20 @@ DEFAULT_BUDGET = 100
 def main(argv: list[str] | None = None) -> int:
     parser = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
     parser.add_argument("--controller", choices=("pid", "lqi"), required=True, help="the controller to tune")
-    parser.add_argument("--budget", type=positive_int, default=DEFAULT_BUDGET,
+    parser.add_argument("--budget", type=number_type(int, 1, 10_000), default=DEFAULT_BUDGET,
                         help="candidate evaluations (each flies the held-out flights once; the shipped PID and the "
                              "start point are flown once more)")
     parser.add_argument("--out", type=Path, default=None,
                         help="the tuned gain table to write (default: jsbsim_env/control/<controller>_tuned_gains.json, "
                              "which the controller <controller>_tuned flies)")
     parser.add_argument("--seed", type=seed_int, default=0, help="CMA-ES's random seed (flights are the held-out ones)")
-    parser.add_argument("--workers", type=positive_int, default=1, help="processes flying candidates at once")
+    parser.add_argument("--workers", type=workers_int, default=1, help="processes flying candidates at once")
     parser.add_argument("--quick", action="store_true", help="30 s flights, for checks (not a tuning to use)")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing --out file")
+    parser.add_argument("--flights", choices=("heldout", "robust"), default="heldout",
+                        help="heldout: the held-out flights, nominal conditions (writes <controller>_tuned); robust: "
+                             "the same flights in conditions drawn from the training episodes' distribution "
+                             "(delay, interval, coefficient spread, turbulence; writes <controller>_robust)")
     parser.add_argument("--aircraft", default=None,
                         help="the aircraft tuned: a packaged aircraft's name or a folder built by "
                              "scripts/build_aircraft.py --out, from its designed tables (default: the paper's; "
@@ -51,7 +65,8 @@ def main(argv: list[str] | None = None) -> int:
         designed = [gain_files.gain_file(kind, args.aircraft) for kind in ("pid", "lqi")]
     except (AircraftError, gain_files.GainsMissing) as err:
         parser.exit(2, f"tune_classical: --aircraft: {err}\n")
-    out = args.out or gain_files.gain_file_path(f"{args.controller}_tuned", args.aircraft)
+    robust = args.flights == "robust"
+    out = args.out or gain_files.gain_file_path(f"{args.controller}_{'robust' if robust else 'tuned'}", args.aircraft)
     if out.resolve() in {path.resolve() for path in designed}:
         parser.error(f"--out {out} is a shipped gain table, which tuning never replaces: give another file")
     try:  # before the tuning, which takes a while
@@ -61,7 +76,7 @@ def main(argv: list[str] | None = None) -> int:
     from training.evaluation.classical_tuning import tune, tuning_flights, write_tuned_table
 
     try:  # the flights' seeds, against the frozen test set, before anything else
-        tuning_flights(args.quick, args.aircraft)
+        tuning_flights(args.quick, args.aircraft, robust)
     except ValueError as err:
         print(err, file=sys.stderr)
         return 2
@@ -70,7 +85,7 @@ def main(argv: list[str] | None = None) -> int:
     except ImportError:
         parser.exit(2, "tune_classical: needs the cma package: pip install '.[tune]'\n")
     table = tune(args.controller, args.budget, seed=args.seed, workers=args.workers, quick=args.quick,
-                 progress=lambda text: print(text, flush=True), aircraft=args.aircraft)
+                 progress=lambda text: print(text, flush=True), aircraft=args.aircraft, robust=robust)
     write_tuned_table(table, out)
     record = table["tuning"]
     budget = record["budget"]

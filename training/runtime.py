@@ -343,6 +343,15 @@ positive_float = number_type(float, 0.0, low_open=True, name="positive_float")
 non_negative_float = number_type(float, 0.0, name="non_negative_float")
 probability = number_type(float, 0.0, 1.0, name="probability")
 positive_int = number_type(int, 1, name="positive_int")
+# Every count a command takes has an upper bound, so that a slip (1e6 for 1e3) is a one-line refusal
+# instead of days of flying or all the memory: the realisations of a condition at most the frozen
+# test set's size (``training.evaluation.seeds.TEST_SEEDS``), which is as many as any comparison here uses.
+MAX_EPISODES = 1000
+episodes_int = number_type(int, 1, MAX_EPISODES, name="episodes")
+MAX_WORKERS = 1024  # processes; the pools start at most the machine's cores (``training.workers.pool_size``)
+workers_int = number_type(int, 1, MAX_WORKERS, name="workers")
+MAX_ROUNDS = 1000  # repeats of a timing
+rounds_int = number_type(int, 1, MAX_ROUNDS, name="rounds")
 non_negative_int = number_type(int, 0, name="non_negative_int")
 seed_int = number_type(int, 0, name="seed")  # numpy's generators take seeds >= 0
 
