@@ -126,3 +126,32 @@ def test_the_tuning_says_how_much_of_its_budget_it_flies(monkeypatch):
     expected = (f"budget {popsize + 5}: 1 CMA-ES generation of {popsize} candidates, {popsize} in all (5 left "
                 "unspent: CMA-ES flies whole generations)")
     assert said == [expected]
+
+
+def test_the_robust_flights_are_the_held_out_ones_in_conditions_drawn_from_training():
+    from jsbsim_env.task.versions import LATEST, task_version
+
+    core = task_version(LATEST).task.core
+    nominal, robust = heldout.heldout_flights(), heldout.heldout_flights(robust=True)
+    assert list(robust) == list(nominal)
+    seeds = {config.seed for config in robust.values()}
+    assert seeds == set(heldout.ROBUST_SEEDS.values()) and not seeds & set(heldout.SEEDS.values())
+    assert not seeds & set(TEST_SEEDS)
+    for name, config in robust.items():
+        assert core.delay_s[0] <= config.delay_s <= core.delay_s[1]
+        assert core.control_interval_s[0] <= 1.0 / config.control_rate_hz <= core.control_interval_s[1]
+        assert config.altitude_m == nominal[name].altitude_m
+        assert config.parameters == ("table4" if nominal[name].parameters == "nominal" else nominal[name].parameters)
+        assert bool(config.turbulence_legs) == (name != "calm_15km")  # the calm flight measures chatter
+    assert len({config.delay_s for config in robust.values()}) == len(robust)  # each flight its own draw
+    assert heldout.heldout_flights(robust=True) == robust  # the same draws every time
+
+
+def test_a_quick_robust_tuning_records_its_flights_and_writes_a_table_the_lqi_flies(tmp_path):
+    pytest.importorskip("cma")
+    out = tmp_path / "lqi_robust.json"
+    assert _main(["--controller", "lqi", "--flights", "robust", "--budget", "2", "--quick", "--out", str(out)]) == 0
+    record = json.loads(out.read_text())["tuning"]
+    assert record["flights"] == "robust"
+    assert {f["seed"] for f in record["budget"]["flights"].values()} == set(heldout.ROBUST_SEEDS.values())
+    assert LQIAttitudeController(gains_path=out).schedule is not None

@@ -14,7 +14,8 @@ from aircraft import Aircraft, load_aircraft
 
 PACKAGED_DIR = Path(__file__).parent  # the paper's aircraft's tables, kept in git
 FILES = {"pid": "pid_gains.json", "lqi": "lqi_gains.json", "pid_tuned": "pid_tuned_gains.json",
-         "lqi_tuned": "lqi_tuned_gains.json"}
+         "lqi_tuned": "lqi_tuned_gains.json", "pid_robust": "pid_robust_gains.json",
+         "lqi_robust": "lqi_robust_gains.json"}
 
 
 class GainsMissing(FileNotFoundError):
@@ -36,8 +37,10 @@ def gain_file(kind: str, aircraft: Aircraft | str | Path | None = None) -> Path:
     path = gain_file_path(kind, aircraft)
     if not path.is_file():
         found = load_aircraft(aircraft)
-        if kind.endswith("_tuned"):
-            how = (f"`python scripts/tune_classical.py --controller {kind.removesuffix('_tuned')}"
+        if kind.endswith(("_tuned", "_robust")):
+            controller, tuning = kind.split("_")
+            how = (f"`python scripts/tune_classical.py --controller {controller}"
+                   + (" --flights robust" if tuning == "robust" else "")
                    + ("" if found.papers else f" --aircraft {found.root}") + "`")
         else:
             how = "`python scripts/build_aircraft.py DESCRIPTION --out DIR` (it designs the PID and the LQI)"

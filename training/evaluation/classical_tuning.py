@@ -27,6 +27,11 @@ the wall-clock time and the cores (``budget_record``).
 The flights' seeds are ``heldout.SEEDS``; every tuning checks them against the frozen test set
 (``seeds.check_not_test_seed``) before it flies, so no gain is ever chosen on the benchmark's flights.
 
+With ``robust``, the flights are the robust ones (``heldout.heldout_flights(robust=True)``: the same
+four in conditions drawn from the training episodes' distribution, on seeds of their own): the
+classical controller then has the information the policy trains on. The tuned tables are flown as
+``pid_robust`` and ``lqi_robust``; the nominal-tuned ones stay.
+
 Another aircraft is tuned the same way from its own tables (``gain_files``: the PID's and the LQI's
 that its build designed), on the held-out flights moved into its envelope.
 """
@@ -118,11 +123,12 @@ def refuse_test_seeds(seeds, tool: str = TOOL) -> None:
     check_not_test_seed(seeds, tool)
 
 
-def tuning_flights(quick: bool = False, aircraft=None) -> dict:
-    """The held-out flights (``heldout.heldout_flights``) the tuning scores on, their seeds checked
-    against the frozen test set; a test seed raises ``ValueError`` naming the tool."""
+def tuning_flights(quick: bool = False, aircraft=None, robust: bool = False) -> dict:
+    """The held-out flights (``heldout.heldout_flights``; the robust ones with ``robust``) the tuning
+    scores on, their seeds checked against the frozen test set; a test seed raises ``ValueError``
+    naming the tool."""
     try:
-        flights = heldout.heldout_flights(quick, aircraft)
+        flights = heldout.heldout_flights(quick, aircraft, robust)
     except ValueError as err:
         raise ValueError(f"{TOOL}: {err}") from None
     refuse_test_seeds([config.seed for config in flights.values()])
@@ -243,16 +249,16 @@ def controller_from_table(controller: str, table: dict, aircraft=None):
     return lqi.LQIAttitudeController(lqi.LQIGainSchedule.from_table(table, "(candidate)"), aircraft=aircraft)
 
 
-def fly_table(controller: str, table: dict, quick: bool, aircraft=None) -> dict:
+def fly_table(controller: str, table: dict, quick: bool, aircraft=None, robust: bool = False) -> dict:
     """``heldout.heldout_scores`` of the controller with ``table`` (a process pool's task)."""
     return heldout.heldout_scores(partial(controller_from_table, controller, table, aircraft=aircraft), quick,
-                                  aircraft)
+                                  aircraft, robust)
 
 
-def reference_scores(quick: bool, aircraft=None) -> dict:
+def reference_scores(quick: bool, aircraft=None, robust: bool = False) -> dict:
     """The designed PID's held-out scores (the shipped one on the paper's aircraft): what every
     candidate's score is relative to."""
-    return heldout.heldout_scores(partial(PIDAttitudeController, aircraft=aircraft), quick, aircraft)
+    return heldout.heldout_scores(partial(PIDAttitudeController, aircraft=aircraft), quick, aircraft, robust)
 
 
 @dataclass
@@ -282,7 +288,7 @@ class _Runner:
 
 
 def evaluate_candidates(problem: Problem, xs: Sequence, reference: dict, quick: bool = False,
-                        runner: _Runner | None = None, aircraft=None) -> list[Evaluation]:
+                        runner: _Runner | None = None, aircraft=None, robust: bool = False) -> list[Evaluation]:
     """Each candidate's score: its design checked for robustness (infinite, unflown, where it fails),
     then the held-out flights, relative to ``reference`` (the PID's scores)."""
     runner = runner or _Runner()
@@ -297,7 +303,7 @@ def evaluate_candidates(problem: Problem, xs: Sequence, reference: dict, quick: 
             continue
         out.append(Evaluation(x, math.nan, None, table=table))
         to_fly.append(len(out) - 1)
-    flown = runner.map(fly_table, [(problem.controller, out[i].table, quick, aircraft) for i in to_fly])
+    flown = runner.map(fly_table, [(problem.controller, out[i].table, quick, aircraft, robust) for i in to_fly])
     for i, scores in zip(to_fly, flown):
         ev = out[i]
         ev.scores = scores
@@ -316,14 +322,15 @@ def default_popsize(n: int) -> int:
 
 
 def tune(controller: str, budget: int, seed: int = 0, workers: int = 1, quick: bool = False,
-         progress: Callable[[str], None] | None = None, aircraft: str | None = None) -> dict:
+         progress: Callable[[str], None] | None = None, aircraft: str | None = None, robust: bool = False) -> dict:
     """CMA-ES over ``controller``'s parameters with ``budget`` candidate evaluations (generations of
     ``min(default_popsize, budget)`` candidates: up to ``budget``, none beyond), from the shipped
     design; returns the best candidate's gain table with its ``"tuning"`` record (the budget used,
     the scores, every evaluation's score). ``seed`` seeds CMA-ES (as ``seed + 1``: cma reads 0 as
     "from the clock"). ``aircraft``: a packaged aircraft's name or a built aircraft's folder (the
-    paper's by default). Refuses flights on the frozen test set before any work."""
-    flights = tuning_flights(quick, aircraft)  # before anything else, even the optimiser's import
+    paper's by default). ``robust``: on the robust flights (module docstring). Refuses flights on the
+    frozen test set before any work."""
+    flights = tuning_flights(quick, aircraft, robust)  # before anything else, even the optimiser's import
     import cma
 
     if budget < 2:
@@ -342,9 +349,9 @@ def tune(controller: str, budget: int, seed: int = 0, workers: int = 1, quick: b
                                              else ""))
     with optional_pool(workers) as pool:
         runner = _Runner(pool)
-        reference = reference_scores(quick, aircraft)
+        reference = reference_scores(quick, aircraft, robust)
         say(f"reference (the shipped PID) flown: {time.perf_counter() - started:.1f} s")
-        start = evaluate_candidates(problem, [problem.x0], reference, quick, runner, aircraft)[0]
+        start = evaluate_candidates(problem, [problem.x0], reference, quick, runner, aircraft, robust)[0]
         if not math.isfinite(start.score):
             raise RuntimeError(f"{TOOL}: the shipped {controller.upper()} design scores infinite ({start.reason})")
         say(f"start (the shipped {controller.upper()}): score {start.score:.4f}")
@@ -357,7 +364,7 @@ def tune(controller: str, budget: int, seed: int = 0, workers: int = 1, quick: b
         stop_reason = None
         for g in range(generations):
             xs = es.ask()
-            evals = evaluate_candidates(problem, xs, reference, quick, runner, aircraft)
+            evals = evaluate_candidates(problem, xs, reference, quick, runner, aircraft, robust)
             es.tell(xs, [e.told for e in evals])
             history.extend(evals)
             for e in evals:
@@ -386,7 +393,9 @@ def tune(controller: str, budget: int, seed: int = 0, workers: int = 1, quick: b
         "rate_tau_s": RATE_TAU_S,
         "score": best.score, "start_score": start.score,
         "best_is_start": best is start,
-        "score_definition": "training.evaluation.heldout.relative_score against the shipped PID (pid_gains.json)",
+        "flights": "robust" if robust else "heldout",
+        "score_definition": ("training.evaluation.heldout.relative_score against the shipped PID (pid_gains.json)"
+                             + (", on the robust flights (heldout.heldout_flights(robust=True))" if robust else "")),
         "scores": best.scores, "start_scores": start.scores, "reference_scores": reference,
         "budget": budget_record(budget, history, generations, popsize, flights, flight_s, wall_s, workers,
                                 quick, stop_reason),

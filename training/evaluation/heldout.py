@@ -13,6 +13,13 @@ tracking with a surface that chatters between large deflections every step; that
 controller to fly, and the errors alone do not show it. ``relative_score`` refuses a policy whose
 surface moves more than ``CHATTER_LIMIT`` times the reference's.
 
+The robust flights (``robust=True``) are the same four drawn from the default task version's
+training distribution instead (``training_conditions``), on route seeds of their own
+(``ROBUST_SEEDS``): each flight's control delay and interval drawn from its ranges, the coefficient
+spread of Table 4 where the held-out flight is nominal, and turbulence on legs 1-3 of the turbulent
+and Table 9 flights; the calm flight stays calm, where it measures the surfaces' activity. A
+controller tuned on them has had the information the policy trains on.
+
 The report flies 10 km (turbulence and Table 9), 1 km and 20 km, all with route seed 11
 (``training.evaluation.report.ROUTE_SEED``); none of these flights is one of its. Another aircraft
 flies them where its envelope puts them (``Aircraft.altitude_like_m``: 5, 3 and 15 km are 25, 15
@@ -25,13 +32,18 @@ import math
 from collections.abc import Callable
 from dataclasses import replace
 
+import numpy as np
+
 from aircraft import load_aircraft
 from jsbsim_env.control.base import AttitudeController
 from jsbsim_env.missions import RouteConfig, fly_route
+from jsbsim_env.sim.disturbances import RANDOMISED
+from jsbsim_env.task.versions import LATEST, task_version
 from training.evaluation.report import ReportPlan, steady_mask, turbulent_metrics, window_metrics
 from training.evaluation.seeds import check_not_test_seed
 
 SEEDS = {"turbulent": 101, "table9": 102, "calm": 103}  # route seeds, none of them the report's ROUTE_SEED
+ROBUST_SEEDS = {"turbulent": 111, "table9": 112, "calm": 113}  # the robust flights' own
 RMSE_KEYS = ("rmse_roll_deg", "rmse_pitch_deg", "rmse_beta_deg")
 STEADY_AFTER_S = ReportPlan().steady_after_leg_change_s  # straight legs scored as in the report
 SURFACES = ("aileron", "elevator", "rudder")
@@ -42,28 +54,48 @@ SURFACES = ("aileron", "elevator", "rudder")
 CHATTER_LIMIT = 10.0
 
 
-def heldout_flights(quick: bool = False, aircraft=None) -> dict[str, RouteConfig]:
+def heldout_flights(quick: bool = False, aircraft=None, robust: bool = False) -> dict[str, RouteConfig]:
     """The held-out route flights by name (the names are the paper's aircraft's), flown by
-    ``aircraft`` (the paper's by default); ``quick``: 30 s each, turbulence from the start, for checks."""
-    for name, seed in SEEDS.items():  # the held-out flights choose seeds: never on the frozen test set
+    ``aircraft`` (the paper's by default); ``quick``: 30 s each, turbulence from the start, for checks;
+    ``robust``: the robust flights (module docstring)."""
+    seeds = ROBUST_SEEDS if robust else SEEDS
+    for name, seed in seeds.items():  # the held-out flights choose seeds: never on the frozen test set
         check_not_test_seed(seed, f"held-out flights ({name})")
     flown = load_aircraft(aircraft)
     base = RouteConfig(aircraft=flown.spec, eas_mps=flown.reference_eas_mps,
                        duration_s=30.0 if quick else 1200.0)
     turbulent_legs = (0,) if quick else (1, 2, 3)
     at = flown.altitude_like_m
-    return {"turbulent_5km": replace(base, altitude_m=at(5000.0), turbulence_legs=turbulent_legs,
-                                     seed=SEEDS["turbulent"]),
-            "positive_3km": replace(base, altitude_m=at(3000.0), parameters="positive", seed=SEEDS["table9"]),
-            "negative_3km": replace(base, altitude_m=at(3000.0), parameters="negative", seed=SEEDS["table9"]),
-            "calm_15km": replace(base, altitude_m=at(15000.0), seed=SEEDS["calm"])}
+    flights = {"turbulent_5km": replace(base, altitude_m=at(5000.0), turbulence_legs=turbulent_legs,
+                                        seed=seeds["turbulent"]),
+               "positive_3km": replace(base, altitude_m=at(3000.0), parameters="positive", seed=seeds["table9"]),
+               "negative_3km": replace(base, altitude_m=at(3000.0), parameters="negative", seed=seeds["table9"]),
+               "calm_15km": replace(base, altitude_m=at(15000.0), seed=seeds["calm"])}
+    if robust:
+        flights = {name: training_conditions(config, turbulent_legs if name != "calm_15km" else (), k)
+                   for k, (name, config) in enumerate(flights.items())}
+    return flights
 
 
-def heldout_scores(controller_factory: Callable[[], AttitudeController], quick: bool = False, aircraft=None) -> dict:
+def training_conditions(config: RouteConfig, turbulence_legs: tuple[int, ...], draw: int) -> RouteConfig:
+    """``config`` in conditions drawn from the default task version's training episodes (its
+    ``CoreConfig``'s delay and control-interval ranges, the Table 4 spread where ``config`` is
+    nominal), with turbulence on ``turbulence_legs``; the draw is the ``draw``-th of the route's seed."""
+    core = task_version(LATEST).task.core
+    rng = np.random.default_rng([config.seed, draw])
+    delay_s = float(rng.uniform(*core.delay_s))
+    interval_s = float(rng.uniform(*core.control_interval_s))
+    return replace(config, delay_s=delay_s, control_rate_hz=1.0 / interval_s, turbulence_legs=turbulence_legs,
+                   parameters=RANDOMISED if config.parameters == "nominal" else config.parameters)
+
+
+def heldout_scores(controller_factory: Callable[[], AttitudeController], quick: bool = False, aircraft=None,
+                   robust: bool = False) -> dict:
     """Each held-out flight's scores (degrees) for a fresh controller from ``controller_factory``,
-    flown by ``aircraft`` (the paper's by default), and whether any flight ended early."""
+    flown by ``aircraft`` (the paper's by default), and whether any flight ended early; ``robust``:
+    on the robust flights."""
     scores: dict = {"ended_early": False}
-    for name, config in heldout_flights(quick, aircraft).items():
+    for name, config in heldout_flights(quick, aircraft, robust).items():
         result = fly_route(controller_factory(), config)
         scores["ended_early"] |= bool(result.ended_early)
         if name == "calm_15km":
