@@ -35,7 +35,7 @@ from pathlib import Path
 # None of these loads torch, ray or onnxruntime: those load when flying, after the arguments are parsed.
 from aircraft import load_aircraft
 from jsbsim_env.control.factory import CONTROLLER_NAMES, check_flyable
-from jsbsim_env.control.gain_files import GainsMissing
+from jsbsim_env.control.gain_files import GainsMissing, GainTableError
 from jsbsim_env.task.metrics import json_ready
 from training.evaluation import selection
 from training.evaluation.benchmark import (
@@ -138,7 +138,7 @@ def main(argv=None) -> int:
     flown = ({"policy": args.policy or shipped_policy_path()} if "policy" in controllers else {}) | compared
     try:  # every gain table and policy file read and checked once here, before any flight
         metas = check_flyable(controllers, flown_aircraft, flown, args.transfer)
-    except (PolicyFileError, GainsMissing) as err:
+    except (PolicyFileError, GainsMissing, GainTableError) as err:
         print(f"benchmark: {err}", file=sys.stderr)
         return 2
     # The policies --network-alone flies without their classical stages.

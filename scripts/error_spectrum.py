@@ -35,12 +35,12 @@ def main(argv: list[str] | None = None) -> int:
     import numpy as np
 
     from jsbsim_env.control.factory import check_flyable, make_controller
-    from jsbsim_env.control.gain_files import GainsMissing
+    from jsbsim_env.control.gain_files import GainsMissing, GainTableError
     from jsbsim_env.control.policy import PolicyFileError, shipped_policy_path
 
     try:  # every gain table and policy file read and checked once, before any flight
         check_flyable(names, policies={"policy": args.policy or shipped_policy_path()} if "policy" in names else None)
-    except (PolicyFileError, GainsMissing, ValueError) as err:
+    except (PolicyFileError, GainsMissing, GainTableError) as err:
         print(f"error_spectrum: {err}", file=sys.stderr)
         return 2
     from jsbsim_env.missions import fly_route

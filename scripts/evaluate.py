@@ -120,13 +120,15 @@ def main(argv: list[str] | None = None) -> int:
     import torch
 
     from aircraft import AircraftError
-    from jsbsim_env.control.gain_files import GainsMissing
+    from jsbsim_env.control.factory import check_flyable
+    from jsbsim_env.control.gain_files import GainsMissing, GainTableError
     from jsbsim_env.control.policy import PolicyFileError
 
     torch.set_num_threads(1)
     try:  # every controller is built (its file read and checked) before the first flight
+        check_flyable(["pid"] if args.compare else [args.controller], args.aircraft)
         controllers = _controllers(args)
-    except (PolicyFileError, AircraftError, GainsMissing) as err:
+    except (PolicyFileError, AircraftError, GainsMissing, GainTableError) as err:
         print(f"evaluate: {err}", file=sys.stderr)
         return 2
     if args.compare:

@@ -128,7 +128,7 @@ def main(argv=None) -> int:
         print(f"loop_bench: --out: {exc}", file=sys.stderr)
         return 2
     from jsbsim_env.control.factory import check_flyable
-    from jsbsim_env.control.gain_files import GainsMissing
+    from jsbsim_env.control.gain_files import GainsMissing, GainTableError
     from jsbsim_env.control.policy import PolicyFileError, shipped_policy_path
 
     # The controller's gain table or policy file, and the failsafe PID's table, read and checked
@@ -136,7 +136,7 @@ def main(argv=None) -> int:
     policies = {"policy": args.policy or shipped_policy_path()} if args.controller == "policy" else {}
     try:
         check_flyable({args.controller, "pid"}, args.aircraft, policies, args.transfer)
-    except (PolicyFileError, GainsMissing) as exc:
+    except (PolicyFileError, GainsMissing, GainTableError) as exc:
         print(f"loop_bench: {exc}", file=sys.stderr)
         return 2
     from tqdm import tqdm

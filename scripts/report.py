@@ -62,7 +62,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     from aircraft import AircraftError
     from jsbsim_env.control.factory import check_flyable
-    from jsbsim_env.control.gain_files import GainsMissing
+    from jsbsim_env.control.gain_files import GainsMissing, GainTableError
     from jsbsim_env.control.policy import PolicyFileError, shipped_policy_path
 
     try:  # every gain table and the policy file read and checked before the first flight
@@ -74,7 +74,7 @@ def main(argv: list[str] | None = None) -> int:
         with writing(out) as staging:
             run_report(staging, args.policy, quick=args.quick, progress=not args.no_progress, experiments=experiments,
                        controllers=controllers, aircraft_spec=args.aircraft, transfer=args.transfer)
-    except (PolicyFileError, AircraftError, GainsMissing) as err:
+    except (PolicyFileError, AircraftError, GainsMissing, GainTableError) as err:
         print(f"report: {err}", file=sys.stderr)
         return 2
     except OutputFolderError as err:  # the folder changed during the flights

@@ -33,7 +33,7 @@ import numpy as np
 
 # None of these loads torch, ray or onnxruntime: those load when flying, after the arguments are parsed.
 from jsbsim_env.control.factory import CONTROLLER_NAMES, check_flyable
-from jsbsim_env.control.gain_files import GainsMissing
+from jsbsim_env.control.gain_files import GainsMissing, GainTableError
 from jsbsim_env.task.metrics import json_ready
 from training.evaluation.seeds import check_not_test_seed
 from training.evaluation.sweep import (
@@ -152,7 +152,7 @@ def main(argv=None) -> int:
     policies = {"policy": args.policy or shipped_policy_path()} if "policy" in controllers else {}
     try:  # gain tables and the policy file read and checked once here, not in every worker
         check_flyable(controllers, args.aircraft, policies, args.transfer)
-    except (PolicyFileError, GainsMissing) as err:
+    except (PolicyFileError, GainsMissing, GainTableError) as err:
         print(f"sweep: {err}", file=sys.stderr)
         return 2
     from tqdm import tqdm

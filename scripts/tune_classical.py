@@ -17,6 +17,7 @@ Needs the ``cma`` package: ``pip install '.[tune]'``.
 
 from __future__ import annotations
 
+import json
 import sys
 from pathlib import Path
 
@@ -69,6 +70,21 @@ def main(argv: list[str] | None = None) -> int:
     out = args.out or gain_files.gain_file_path(f"{args.controller}_{'robust' if robust else 'tuned'}", args.aircraft)
     if out.resolve() in {path.resolve() for path in designed}:
         parser.error(f"--out {out} is a shipped gain table, which tuning never replaces: give another file")
+    # A table is read as the controller its name or its record says: never write one as the other's.
+    other = [kind for kind, name in gain_files.FILES.items() if name == out.name and not kind.startswith(args.controller)]
+    if other:
+        parser.error(f"--out {out} is named as the {other[0]} table, and this tuning writes the "
+                     f"{args.controller.upper()}'s: give a file named for it")
+    if out.is_file():
+        from jsbsim_env.control.pid import recorded_controller
+
+        try:
+            recorded = recorded_controller(json.loads(out.read_text()))
+        except (OSError, ValueError, AttributeError):
+            recorded = None
+        if recorded is not None and recorded != args.controller:
+            parser.error(f"--out {out} holds the {recorded.upper()}'s tuned table, and this tuning writes the "
+                         f"{args.controller.upper()}'s: give another file")
     try:  # before the tuning, which takes a while
         claim_output_file(out, args.overwrite)
     except OutputFolderError as err:

@@ -9,7 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from aircraft import load_aircraft
-from jsbsim_env.control.gain_files import FILES, PACKAGED_DIR, gain_file
+from jsbsim_env.control.gain_files import FILES, PACKAGED_DIR, GainTableError, gain_file
 from jsbsim_env.control.gain_files import GainsMissing as TunedGainsMissing
 from jsbsim_env.control.pid import PIDAttitudeController
 
@@ -24,16 +24,32 @@ def tuned_gain_file(name: str, aircraft=None) -> Path:
     return gain_file(name, aircraft)
 
 
+def check_gain_table(name: str, path: Path) -> None:
+    """The gain table at ``path`` read as the controller ``name`` reads it: its values checked
+    (finite, the right controller, signs and trims); ``GainTableError`` in one line otherwise."""
+    try:
+        if name.startswith("pid"):
+            from jsbsim_env.control.pid import GainSchedule
+
+            GainSchedule(path)
+        else:
+            from jsbsim_env.control.lqi import LQIGainSchedule
+
+            LQIGainSchedule(path)
+    except ValueError as err:
+        raise GainTableError(str(err)) from None
+
+
 def check_flyable(names, aircraft=None, policies: dict | None = None, transfer: bool = False) -> dict:
     """Before any flight: each classical controller of ``names`` has ``aircraft``'s gain table
-    (``TunedGainsMissing`` otherwise), and each policy file of ``policies`` (label -> path) reads
+    (``TunedGainsMissing`` otherwise) and can fly it (``GainTableError`` otherwise), and each policy file of ``policies`` (label -> path) reads
     and was trained on ``aircraft`` unless ``transfer`` (``PolicyFileError``, ``WrongAircraftError``).
     Returns each policy's metadata (``load_policy``) by label."""
     from jsbsim_env.control.policy import check_aircraft, load_policy
 
     for name in names:
         if name != "policy":
-            gain_file(name, aircraft)
+            check_gain_table(name, gain_file(name, aircraft))
     flown = load_aircraft(aircraft)
     metas = {}
     for label, path in (policies or {}).items():
@@ -75,6 +91,14 @@ def make_controller(name: str, policy=None, backend: str = "onnx", network_alone
     raise ValueError(f"controller must be one of {', '.join(CONTROLLER_NAMES)}, got {name!r}")
 
 
-__all__ = ["CONTROLLER_NAMES", "TUNED_CONTROLLER_NAMES", "TUNED_GAIN_FILES", "TunedGainsMissing", "check_flyable",
-           "make_controller",
-           "tuned_gain_file"]
+__all__ = [
+    "CONTROLLER_NAMES",
+    "TUNED_CONTROLLER_NAMES",
+    "TUNED_GAIN_FILES",
+    "GainTableError",
+    "TunedGainsMissing",
+    "check_flyable",
+    "check_gain_table",
+    "make_controller",
+    "tuned_gain_file",
+]

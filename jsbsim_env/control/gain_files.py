@@ -22,6 +22,11 @@ class GainsMissing(FileNotFoundError):
     """A controller asked for on an aircraft whose gain table has not been written."""
 
 
+class GainTableError(ValueError):
+    """A gain table that is there but cannot be flown: malformed, another controller's, a gain of the
+    wrong sign or an impossible trim (the message names the file and what is wrong)."""
+
+
 def gain_file_path(kind: str, aircraft: Aircraft | str | Path | None = None) -> Path:
     """Where the ``kind`` (``FILES``) table of ``aircraft`` (the paper's by default) is kept, whether
     or not it has been written."""

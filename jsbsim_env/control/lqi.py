@@ -48,6 +48,7 @@ from jsbsim_env.control.pid import (
     SURFACE_INTEGRATOR_LIMIT_DEG,
     THROTTLE_INTEGRATOR_LIMIT,
     altitude_points,
+    check_trims,
     design_eas_of,
     read_gain_file,
 )
@@ -207,7 +208,7 @@ def gain_table(sim: Simulation, altitudes_m=DESIGN_ALTITUDES_M, progress=None, s
         rows.append(design_point(sim, h, eas_mps, sizes=sizes, detune=detune))
         if progress:
             progress(rows[-1])
-    return {"design_eas_mps": float(eas_mps), "control_rate_hz": tuning.CONTROL_RATE_HZ,
+    return {"controller": "lqi", "design_eas_mps": float(eas_mps), "control_rate_hz": tuning.CONTROL_RATE_HZ,
             "method": "jsbsim_env.control.lqi", **{k: tuple(v) for k, v in sizes.items()}, "points": rows}
 
 
@@ -239,6 +240,7 @@ class LQIGainSchedule:
     def _load(self, table: dict, path: Path | str) -> None:
         self.altitudes_m, self.values = altitude_points(table, GAIN_COLUMNS, path, "LQI")
         self.design_eas_mps = design_eas_of(table, path, "LQI")
+        check_trims(table, path, "LQI")
         self.margins = [p.get("margins") for p in table["points"]]
         self._altitudes = self.altitudes_m.tolist()
         self._rows = self.values.tolist()

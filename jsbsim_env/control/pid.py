@@ -87,7 +87,8 @@ def write_gain_table(path: Path = GAINS_PATH, altitudes_m=DESIGN_ALTITUDES_M, pr
         rows.append({"altitude_m": float(h), **asdict(previous)})
         if progress:
             progress(rows[-1])
-    table = {"design_eas_mps": float(eas_mps), "method": "jsbsim_env.control.tuning", "points": rows}
+    table = {"controller": "pid", "design_eas_mps": float(eas_mps), "method": "jsbsim_env.control.tuning",
+             "points": rows}
     tmp = path.with_suffix(".tmp")
     tmp.write_text(json.dumps(table, indent=1))
     tmp.replace(path)
@@ -95,11 +96,44 @@ def write_gain_table(path: Path = GAINS_PATH, altitudes_m=DESIGN_ALTITUDES_M, pr
 
 
 def read_gain_file(path: Path | str, what: str) -> dict:
-    """A gain table file (the PID's or the LQI's): its JSON, or ``ValueError`` naming ``what`` and the file."""
+    """A gain table file (the PID's or the LQI's): its JSON, or ``ValueError`` naming ``what`` and the
+    file, also where it is no table or records another controller (``recorded_controller``)."""
     try:
-        return json.loads(Path(path).read_text())
+        table = json.loads(Path(path).read_text())
     except (OSError, ValueError) as exc:
         raise ValueError(f"{what} gain table {path} is missing or malformed: {exc}") from exc
+    if not isinstance(table, dict):
+        kind = type(table).__name__
+        raise ValueError(f"{what} gain table {path} is malformed: a JSON object with its points expected, got {kind}")  # noqa: TRY004
+    recorded = recorded_controller(table)
+    if recorded is not None and recorded != what.lower():
+        raise ValueError(f"{what} gain table {path} records the {recorded.upper()}'s gains, not the {what}'s")
+    return table
+
+
+def recorded_controller(table: dict) -> str | None:
+    """The controller a gain table says it is for ("pid" or "lqi": its ``controller`` entry, or its
+    tuning record's), None where it does not say (tables written before they recorded it)."""
+    tuning = table.get("tuning")
+    value = table.get("controller", tuning.get("controller") if isinstance(tuning, dict) else None)
+    return value if isinstance(value, str) else None
+
+
+# A trim a table may hold: surfaces and attitudes within what any aircraft here flies, the throttle in
+# its range. A trim beyond them is a table of another aircraft or an edit, and every flight would end.
+TRIM_LIMITS = {"elevator_trim_deg": (-45.0, 45.0), "throttle_trim": (0.0, 1.0), "pitch_trim_deg": (-30.0, 30.0),
+               "alpha_trim_deg": (-30.0, 30.0)}
+
+
+def check_trims(table: dict, path: Path | str, what: str) -> None:
+    """Every design point's trims (``TRIM_LIMITS``, those it has) within their limits; ``ValueError``
+    naming the point, the trim and the limit otherwise."""
+    for point in table["points"]:
+        for name, (low, high) in TRIM_LIMITS.items():
+            value = point.get(name)
+            if value is not None and not low <= value <= high:
+                raise ValueError(f"{what} gain table {path}: {name} {value:g} at {point['altitude_m']:g} m is outside "
+                                 f"[{low:g}, {high:g}], an impossible trim")
 
 
 def design_eas_of(table: dict, path: Path | str, what: str) -> float:
@@ -125,6 +159,12 @@ def altitude_points(table: dict, columns, path: Path | str, what: str) -> tuple[
     return altitudes_m, values
 
 
+# The sign of each feedback gain under this controller's conventions: a gain of the other sign
+# feeds its error back the wrong way (every design here, the tuned ones included, keeps them).
+GAIN_SIGNS = {"k_pitch": 1, "k_q": 1, "k_pitch_i": 1, "k_eas": 1, "k_eas_i": 1, "k_roll": 1, "k_p": 1,
+              "k_roll_i": 1, "k_r": 1, "k_beta": -1}
+
+
 class GainSchedule:
     """The stored gain table, interpolated in altitude (held constant beyond its ends)."""
 
@@ -143,6 +183,11 @@ class GainSchedule:
         names = [f.name for f in fields(DesignPoint)]
         self.altitudes_m, self.values = altitude_points(table, names, path, "PID")
         self.design_eas_mps = design_eas_of(table, path, "PID")
+        check_trims(table, path, "PID")
+        for column, (name, sign) in enumerate((n, GAIN_SIGNS.get(n)) for n in names):
+            if sign is not None and not np.all(sign * self.values[:, column] >= 0.0):
+                raise ValueError(f"PID gain table {path}: {name} must be {'>=' if sign > 0 else '<='} 0 at every "
+                                 f"altitude (its sign convention), got {self.values[:, column].tolist()}")
 
         # Plain floats: read every control step, on one altitude, where np.interp's per-call cost
         # (about 1.5 us a column) dominates.
