@@ -111,3 +111,54 @@ def test_ctrl_c_stops_the_benchmark_and_its_workers_in_one_line(when, tmp_path):
         time.sleep(0.2)
     assert not _group_pids(proc.pid), "workers outlived the command"
     assert not (tmp_path / "benchmark.json").exists()
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the parent-death signal is Linux's prctl")
+def test_workers_end_when_their_parent_is_killed(tmp_path):
+    # A parent killed outright (SIGKILL: no clean-up of its own) leaves no worker behind to go on
+    # flying or training and hold its run folder.
+    code = textwrap.dedent("""
+        import time
+        from training.workers import process_pool
+
+        def pid_after(seconds):
+            import os
+            time.sleep(seconds)
+            return os.getpid()
+
+        def own_pid(_):
+            import os
+            return os.getpid()
+
+        if __name__ == "__main__":
+            with process_pool(2, jobs=2) as pool:
+                pids = sorted(set(pool.map(own_pid, range(8))))
+                print(" ".join(map(str, pids)), flush=True)
+                list(pool.map(pid_after, [600.0, 600.0]))
+    """)
+    script = tmp_path / "pool_parent.py"  # a file, so that the spawned workers can import its functions
+    script.write_text(code)
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    # stderr dropped: the killed parent's resource tracker reports the semaphores it leaves.
+    parent = subprocess.Popen([sys.executable, str(script)], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                              text=True, env=env)
+    try:
+        workers = [int(p) for p in parent.stdout.readline().split()]
+        assert workers and all(_alive(p) for p in workers)
+        parent.kill()
+        parent.wait(timeout=30)
+        deadline = time.monotonic() + 20.0
+        while any(_alive(p) for p in workers) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert not any(_alive(p) for p in workers), "a worker outlived its killed parent"
+    finally:
+        parent.kill()
+
+
+def _alive(pid: int) -> bool:
+    """Whether ``pid`` runs (a zombie, ended but not yet reaped by init, does not)."""
+    try:
+        with open(f"/proc/{pid}/stat") as stat:
+            return stat.read().split(")")[-1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False

@@ -10,7 +10,9 @@ workers share the machine's cores, and OpenMP threads beyond them only wait on e
 Ctrl-C reaches the whole process group; the workers ignore it (from their start) and the parent, on its
 ``KeyboardInterrupt`` (or any error), cancels the work not started and terminates its workers
 before the exception goes on, so that a stopped command ends in its own one line, not in a
-traceback from each worker.
+traceback from each worker. A worker also ends when its parent does, however it ends (on Linux,
+``prctl``'s parent-death signal; SIGKILL of the parent included): an orphan would go on flying or
+training, holding its run folder, and the same command started again would be refused.
 """
 
 from __future__ import annotations
@@ -47,10 +49,26 @@ class _WorkerContext(multiprocessing.context.SpawnContext):
     Process = _WorkerProcess
 
 
+PR_SET_PDEATHSIG = 1  # linux/prctl.h
+
+
+def _end_with_parent() -> None:
+    """SIGTERM to this worker when the process that started it ends (Linux; elsewhere the parent's
+    own clean-up, ``stop_workers``, is all), and an end now where it has ended already."""
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
+    parent = multiprocessing.parent_process()
+    if parent is not None and os.getppid() != parent.pid:  # the parent ended before the line above
+        os._exit(1)
+
+
 def _start_worker() -> None:
-    """Runs first in every worker: Ctrl-C ignored, then no longer blocked (``_WorkerProcess``), and
-    one torch thread (where a module the worker unpickled has loaded torch already; the variables
-    cover a later import)."""
+    """Runs first in every worker: ended with its parent (``_end_with_parent``), Ctrl-C ignored,
+    then no longer blocked (``_WorkerProcess``), and one torch thread (where a module the worker
+    unpickled has loaded torch already; the variables cover a later import)."""
+    _end_with_parent()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     torch = sys.modules.get("torch")
