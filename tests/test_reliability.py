@@ -90,7 +90,7 @@ def test_evaluate_refuses_a_damaged_policy_file_naming_it(tiny_run, tmp_path, ca
 def test_evaluate_refuses_zero_episodes(capsys, load_script):
     with pytest.raises(SystemExit) as stop:
         load_script("evaluate").main(["--episodes", "0"])
-    assert stop.value.code == 2 and "--episodes must be at least 1, got 0" in capsys.readouterr().err
+    assert stop.value.code == 2 and "--episodes must be in [1, 1000], got 0" in capsys.readouterr().err
 
 
 def test_evaluate_json_has_null_and_the_reason_where_a_metric_is_not_finite(load_script):

@@ -313,7 +313,7 @@ def _with(values, index, value):
 @pytest.mark.parametrize(("measurement", "goal", "named"), [
     (LEVEL, np.array([3.0, 1.15, 10.0]), r"goal roll = 3 rad \(171.9 deg\) is outside .* to 0.174533 rad"),  # degrees
     (LEVEL, np.array([0.0, 1.15, 10.0]), r"goal pitch = 1.15 rad .* is outside"),
-    (LEVEL, np.array([0.0, 0.0, -10.0]), r"goal EAS = -10 m/s is outside .* \(6 m/s to 14 m/s"),
+    (LEVEL, np.array([0.0, 0.0, -10.0]), r"goal EAS = -10 m/s is outside .* \(-1 m/s to 36 m/s"),
     (LEVEL, np.array([0.0, 0.0, 1000.0]), r"goal EAS = 1000 m/s is outside"),
     (_with(LEVEL, 0, 10000.0 / 0.3048), GOAL, r"measurement altitude_m = 32808.4 m is outside .* to 25000 m"),  # feet
     (_with(LEVEL, 1, 200.0), GOAL, r"measurement roll_rad = 200 rad .* is outside .* to 3.14159 rad"),  # degrees
@@ -355,7 +355,8 @@ def test_act_refuses_an_interval_no_task_flies_at(runtimes, dt_s, named):
 
 def test_act_flies_the_edges_of_what_the_task_asks(runtimes):
     runtime = runtimes["torch"]
-    for goal in ([10 * _DEG, 20 * _DEG, 6.0], [-10 * _DEG, -20 * _DEG, 14.0]):
+    # The last: a speed-free route gives the measured EAS as the goal, in a dive beyond any goal drawn.
+    for goal in ([10 * _DEG, 20 * _DEG, 6.0], [-10 * _DEG, -20 * _DEG, 14.0], [0.0, 0.0, 20.0]):
         runtime.reset()
         assert runtime.act(LEVEL, np.array(goal), 0.04).shape == (4,)
     tumbling = np.array([-4000.0, math.pi, -math.pi / 2, 6, -6, 6, 0.0, -math.pi, math.pi, 0.6, -0.6, 0.4, 1.0])

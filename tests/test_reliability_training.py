@@ -362,7 +362,7 @@ def test_bad_seeds_and_workers_are_refused_with_one_line(tmp_path, capsys, load_
     with pytest.raises(SystemExit) as stopped:  # refused by the parser itself
         script.main(["--seeds", "1", "--workers", "0", *base])
     assert stopped.value.code == 2
-    assert _errors(capsys)[0] == ["train_torchrl: --workers must be at least 1, got 0"]
+    assert _errors(capsys)[0] == ["train_torchrl: --workers must be in [1, 1024], got 0"]
     assert not any(tmp_path.iterdir())
 
 

@@ -7,6 +7,7 @@ import pytest
 
 from training.evaluation.seeds import TEST_SEEDS, check_not_test_seed, overlaps_test_seeds, tool_seed_ranges
 from training.evaluation.stats import paired_difference, verdict
+from training.runtime import MAX_EPISODES
 
 
 def test_no_tool_flies_the_test_seeds():
@@ -48,23 +49,20 @@ def test_sweep_and_ablation_scripts_refuse_the_test_seeds(tmp_path, capsys):
     script = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(script)
     episodes = TEST_SEEDS.start - SWEEP_EPISODE_SEED + 1
-    assert script.main(["--axis", "delay_ms=0", "--controllers", "pid", "--episodes", str(episodes),
-                        "--out", str(tmp_path / "s")]) == 2
-    assert "frozen test set" in capsys.readouterr().err
+    # The scripts' episode bound (training.runtime.MAX_EPISODES) stops such a count first ...
+    with pytest.raises(SystemExit) as stop:
+        script.main(["--axis", "delay_ms=0", "--controllers", "pid", "--episodes", str(episodes),
+                     "--out", str(tmp_path / "s")])
+    assert stop.value.code == 2 and "--episodes must be in [1, 1000]" in capsys.readouterr().err
     assert not (tmp_path / "s").exists()
+    # ... and the sweep's and the ablation's own seed checks stand behind it.
+    from training.evaluation.sweep import jobs_for
+
+    with pytest.raises(ValueError, match="frozen test set"):
+        jobs_for(["pid"], [{}], episodes)
     from training.evaluation.suite import EVAL_EPISODE_SEED
 
-    run = tmp_path / "c1_seed0"
-    run.mkdir()
-    (run / "best_policy.pt").write_bytes(b"")  # refused before the policy is read
-    spec = importlib.util.spec_from_file_location("ablation_script", root / "scripts" / "ablation.py")
-    ablation = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(ablation)
-    with pytest.raises(SystemExit) as stop:
-        ablation.main([str(run), "--episodes", str(TEST_SEEDS.start - EVAL_EPISODE_SEED + 1)])
-    assert stop.value.code == 2 and "ablation (suite episodes)" in capsys.readouterr().err
-    assert not (run / "scorecard").exists()
-
+    assert EVAL_EPISODE_SEED + MAX_EPISODES <= TEST_SEEDS.start  # the bound keeps the suite's seeds clear
 
 def test_paired_interval_contains_a_known_shift():
     rng = np.random.default_rng(1)

@@ -7,7 +7,7 @@ milliseconds would otherwise be flown as given, into some finite but meaningless
 | input | accepted | why that margin |
 |---|---|---|
 | goal roll, pitch | ``GOAL_MARGIN`` x the task's ±5°, ±10° | a doublet or step from the level-flight pitch reaches past the drawn range |
-| goal EAS | the aircraft's EAS range widened by ``GOAL_MARGIN`` about its middle | the same |
+| goal EAS | what a measured EAS may be (below) | a route that leaves the speed to TECS gives the measured EAS as the goal (``RouteConfig.attitude_eas_demand``), in a gust or a dive beyond any goal drawn |
 | altitude | the aircraft's altitude range, widened by ``ALTITUDE_MARGIN`` of its span each way | a flight leaves its range before it is ended |
 | roll, pitch | ±180°, ±90° | what the angles can be |
 | alpha, beta | ±180° | what the angles can be |
@@ -103,6 +103,7 @@ class InputLimits:
         low, high = goal_range(aircraft)
         middle, half = (low + high) / 2.0, (high - low) / 2.0 * GOAL_MARGIN
         self.goal_low, self.goal_high = (middle - half).tolist(), (middle + half).tolist()
+        self.goal_low[2], self.goal_high[2] = MIN_EAS_MPS, MAX_EAS_FACTOR * aircraft.eas_range_mps[1]
         a0, a1 = aircraft.altitude_range_m
         margin = ALTITUDE_MARGIN * max(a1 - a0, 1000.0)
         pi, half_pi = math.pi + 1e-9, math.pi / 2.0 + 1e-9
@@ -137,9 +138,9 @@ class InputLimits:
                         f"({_show(lo, unit)} to {_show(hi, unit)}); give SI units and radians (core.STATE_NAMES)")
         for name, unit, v, lo, hi in zip(_GOAL_NAMES, _GOAL_UNITS, g, self.goal_low, self.goal_high):
             if not lo <= v <= hi:
+                why = f"{GOAL_MARGIN:g} x its drawn range" if name != "EAS" else "what its EAS may measure"
                 return (f"goal {name} = {_show(v, unit)} is outside what the task asks of {self.aircraft.name} "
-                        f"({_show(lo, unit)} to {_show(hi, unit)}, {GOAL_MARGIN:g} x its drawn range); give roll, "
-                        "pitch in rad and EAS in m/s")
+                        f"({_show(lo, unit)} to {_show(hi, unit)}, {why}); give roll, pitch in rad and EAS in m/s")
         return "measurement or goal outside its limits"
 
 
