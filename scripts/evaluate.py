@@ -30,12 +30,15 @@ from training.runtime import OutputFolderError, ScriptParser, add_aircraft_optio
 
 SHIPPED, PID = "shipped", "PID"  # column names of --compare
 # The classical controllers' keys in the JSON output, and what it says about each.
-_LABELS = {"pid": PID, "lqi": "LQI", "pid_tuned": "PID_tuned", "lqi_tuned": "LQI_tuned"}
+_LABELS = {"pid": PID, "lqi": "LQI", "pid_tuned": "PID_tuned", "lqi_tuned": "LQI_tuned", "pid_robust": "PID_robust",
+           "lqi_robust": "LQI_robust"}
 _ABOUT = {"pid": "gain-scheduled PID", "lqi": "gain-scheduled LQI",
           "pid_tuned": "gain-scheduled PID, tuned on nonlinear flights",
-          "lqi_tuned": "gain-scheduled LQI, tuned on nonlinear flights"}
+          "lqi_tuned": "gain-scheduled LQI, tuned on nonlinear flights",
+          "pid_robust": "gain-scheduled PID, tuned on nonlinear flights in the training episodes' conditions",
+          "lqi_robust": "gain-scheduled LQI, tuned on nonlinear flights in the training episodes' conditions"}
 # jsbsim_env.control.factory.CONTROLLER_NAMES, spelled out: the factory loads the simulation
-CONTROLLER_NAMES = ("policy", "pid", "lqi", "pid_tuned", "lqi_tuned")
+CONTROLLER_NAMES = ("policy", "pid", "lqi", "pid_tuned", "lqi_tuned", "pid_robust", "lqi_robust")
 DEFAULT_EPISODES = 50
 # The files --plots receives (training.evaluation.suite.doublet_runs): an earlier evaluation's are
 # refused, or replaced with --overwrite.

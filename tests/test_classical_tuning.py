@@ -155,3 +155,12 @@ def test_a_quick_robust_tuning_records_its_flights_and_writes_a_table_the_lqi_fl
     assert record["flights"] == "robust"
     assert {f["seed"] for f in record["budget"]["flights"].values()} == set(heldout.ROBUST_SEEDS.values())
     assert LQIAttitudeController(gains_path=out).schedule is not None
+
+
+def test_the_robust_tuned_controllers_fly_by_name_from_their_shipped_tables():
+    assert {"pid_robust", "lqi_robust"} <= set(factory.CONTROLLER_NAMES)
+    for name, cls in (("pid_robust", PIDAttitudeController), ("lqi_robust", LQIAttitudeController)):
+        assert isinstance(factory.make_controller(name), cls)
+        record = json.loads(gain_files.gain_file(name).read_text())["tuning"]
+        assert record["flights"] == "robust" and record["budget"]["candidate_evaluations"] == 100
+        assert record["score"] < record["start_score"]

@@ -13,7 +13,9 @@ from jsbsim_env.control.gain_files import FILES, PACKAGED_DIR, GainTableError, g
 from jsbsim_env.control.gain_files import GainsMissing as TunedGainsMissing
 from jsbsim_env.control.pid import PIDAttitudeController
 
-TUNED_CONTROLLER_NAMES = ("pid_tuned", "lqi_tuned")
+# Tuned on the held-out flights (nominal conditions) and on the robust ones (the training episodes'
+# distribution of conditions): ``training.evaluation.classical_tuning``.
+TUNED_CONTROLLER_NAMES = ("pid_tuned", "lqi_tuned", "pid_robust", "lqi_robust")
 CONTROLLER_NAMES = ("policy", "pid", "lqi", *TUNED_CONTROLLER_NAMES)
 TUNED_GAIN_FILES = {name: PACKAGED_DIR / FILES[name] for name in TUNED_CONTROLLER_NAMES}  # the paper's aircraft's
 
@@ -67,7 +69,8 @@ def make_controller(name: str, policy=None, backend: str = "onnx", network_alone
     ("onnx" or "torch"), without its classical stages where ``network_alone``
     (``PolicyRuntime``); refused on an aircraft other than the one it was trained on unless
     ``transfer``. ``"pid"``: the gain-scheduled PID; ``"lqi"``: the gain-scheduled LQI;
-    ``"pid_tuned"``, ``"lqi_tuned"``: the same with their tuned gain files. The classical
+    ``"pid_tuned"``, ``"lqi_tuned"``: the same with their tuned gain files, ``"pid_robust"``,
+    ``"lqi_robust"`` with those tuned on the robust flights. The classical
     controllers fly the aircraft's own gain tables (``gain_files``)."""
     if name == "policy":
         from jsbsim_env.control.policy import PolicyRuntime
@@ -82,9 +85,9 @@ def make_controller(name: str, policy=None, backend: str = "onnx", network_alone
         from jsbsim_env.control.lqi import LQIAttitudeController
 
         return LQIAttitudeController(aircraft=aircraft)
-    if name == "pid_tuned":
+    if name in ("pid_tuned", "pid_robust"):
         return PIDAttitudeController(gains_path=tuned_gain_file(name, aircraft), aircraft=aircraft)
-    if name == "lqi_tuned":
+    if name in ("lqi_tuned", "lqi_robust"):
         from jsbsim_env.control.lqi import LQIAttitudeController
 
         return LQIAttitudeController(gains_path=tuned_gain_file(name, aircraft), aircraft=aircraft)
