@@ -81,7 +81,7 @@ def test_the_commands_refuse_a_malformed_table_before_any_flight(script, argv, p
 
 
 def test_the_shipped_and_tuned_tables_pass_their_checks():
-    for name in ("pid", "lqi", "pid_tuned", "lqi_tuned"):
+    for name in ("pid", "lqi", "pid_tuned", "lqi_tuned", "pid_robust", "lqi_robust"):
         factory.check_gain_table(name, gain_files.gain_file(name))
 
 
