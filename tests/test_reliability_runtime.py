@@ -321,7 +321,7 @@ def _with(values, index, value):
     (_with(LEVEL, 3, 90.0), GOAL, r"measurement p_radps = 90 rad/s .* to 6.28319 rad/s"),  # deg/s
     (_with(LEVEL, 6, 100.0), GOAL, r"measurement airspeed_eas_mps = 100 m/s .* to 36 m/s"),
     (_with(LEVEL, 10, 5.0), GOAL, r"measurement elevator_rad = 5 rad .* to 0.654498 rad"),  # degrees
-    (_with(LEVEL, 12, 50.0), GOAL, r"measurement throttle = 50 0..1 .* to 1 0..1"),  # percent
+    (_with(LEVEL, 12, 50.0), GOAL, r"measurement throttle = 50 0..1 .* to 1.25 0..1"),  # percent
     (LEVEL.astype(complex), GOAL, r"measurement must hold real numbers, got complex128"),
     (LEVEL, GOAL + 0j, r"goal must hold real numbers"),
     (LEVEL.astype(str), GOAL, r"measurement must hold real numbers"),
@@ -359,6 +359,10 @@ def test_act_flies_the_edges_of_what_the_task_asks(runtimes):
     for goal in ([10 * _DEG, 20 * _DEG, 6.0], [-10 * _DEG, -20 * _DEG, 14.0], [0.0, 0.0, 20.0]):
         runtime.reset()
         assert runtime.act(LEVEL, np.array(goal), 0.04).shape == (4,)
+    noisy = LEVEL.copy()
+    noisy[12] = 1.0 + 3e-3  # a throttle at its stop, measured with its sensor noise
+    runtime.reset()
+    assert runtime.act(noisy, GOAL, 0.04).shape == (4,)
     tumbling = np.array([-4000.0, math.pi, -math.pi / 2, 6, -6, 6, 0.0, -math.pi, math.pi, 0.6, -0.6, 0.4, 1.0])
     runtime.reset()
     assert runtime.act(tumbling, GOAL, 0.12).shape == (4,)

@@ -14,7 +14,7 @@ milliseconds would otherwise be flown as given, into some finite but meaningless
 | p, q, r | ±``MAX_RATE_RADPS`` | one turn a second: far beyond any flight the aircraft can survive |
 | EAS | ``MIN_EAS_MPS`` to ``MAX_EAS_FACTOR`` x the top of the aircraft's EAS range | sensor noise about zero, and a dive |
 | surfaces | ``SURFACE_MARGIN`` x their travel | backlash and rounding at the stops |
-| throttle | 0 to 1 | what the throttle is |
+| throttle | ``SURFACE_MARGIN`` about 0 to 1 | a measured throttle carries sensor noise past its stops |
 | interval (learned) | ``INTERVAL_MARGIN`` about the task's 40-60 ms | the intervals a policy was trained at |
 | interval (classical) | ``CLASSICAL_INTERVAL_S`` | the rates a discrete form of a continuous design holds at |
 """
@@ -38,7 +38,6 @@ MAX_RATE_RADPS = 2.0 * math.pi
 MIN_EAS_MPS = -1.0
 MAX_EAS_FACTOR = 3.0
 SURFACE_MARGIN = 1.25
-THROTTLE_TOLERANCE = 1e-6
 INTERVAL_MARGIN = 2.0  # accepted intervals of a learned controller: the task's / 2 to the task's x 2
 CLASSICAL_INTERVAL_S = (1e-3, 0.5)
 _UNITS = ("m", "rad", "rad", "rad/s", "rad/s", "rad/s", "m/s", "rad", "rad", "rad", "rad", "rad", "0..1")
@@ -111,7 +110,7 @@ class InputLimits:
         bounds = [(a0 - margin, a1 + margin), (-pi, pi), (-half_pi, half_pi),
                   *[(-MAX_RATE_RADPS, MAX_RATE_RADPS)] * 3, (MIN_EAS_MPS, MAX_EAS_FACTOR * aircraft.eas_range_mps[1]),
                   (-pi, pi), (-pi, pi), (-aileron, aileron), (-elevator, elevator), (-rudder, rudder),
-                  (-THROTTLE_TOLERANCE, 1.0 + THROTTLE_TOLERANCE)]
+                  (1.0 - SURFACE_MARGIN, SURFACE_MARGIN)]
         self.measurement_low = [b[0] for b in bounds]
         self.measurement_high = [b[1] for b in bounds]
         self.aircraft = aircraft
