@@ -48,6 +48,7 @@ from training.checkpoint import (
 )
 from training.config import OptimSettings, TrainConfig, check_device
 from training.networks import make_actor, make_critic
+from training.output_folders import write_text_atomic
 from training.progress_log import read_progress
 from training.relabel import relabel_goals
 from training.runtime import available_memory, check_threads
@@ -373,9 +374,7 @@ class Trainer:
             if path.read_text() == text:
                 return
         with self._writing():
-            tmp = path.with_name(".config.json.tmp")
-            tmp.write_text(text)
-            tmp.replace(path)
+            write_text_atomic(path, text)
 
     def _load(self) -> None:
         data = load_checkpoint(self.checkpoint_path, required=("config", "sac", "optimizer", "buffer", "counters"))
