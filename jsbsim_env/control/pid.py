@@ -184,7 +184,8 @@ class GainSchedule:
         self.altitudes_m, self.values = altitude_points(table, names, path, "PID")
         self.design_eas_mps = design_eas_of(table, path, "PID")
         check_trims(table, path, "PID")
-        for column, (name, sign) in enumerate((n, GAIN_SIGNS.get(n)) for n in names):
+        for column, name in enumerate(names):
+            sign = GAIN_SIGNS.get(name)
             if sign is not None and not np.all(sign * self.values[:, column] >= 0.0):
                 raise ValueError(f"PID gain table {path}: {name} must be {'>=' if sign > 0 else '<='} 0 at every "
                                  f"altitude (its sign convention), got {self.values[:, column].tolist()}")

@@ -322,10 +322,10 @@ class Simulation:
         scale = np.array([1.0, 1.0, 10.0])  # weight the angular acceleration like the translational ones
         x = x.copy()
         r_all = self._residuals(altitude_m, tas_mps, x)
-        r = r_all[free]
         for _ in range(max_iterations):
             if _converged(r_all, free):
                 break
+            r = r_all[free]
             jac = np.empty((3, 3))
             for k in range(3):
                 dx = np.zeros(6)
@@ -336,11 +336,11 @@ class Simulation:
             x_new = x.copy()
             x_new[free] = np.clip(x[free] + delta, *bounds)
             r_new_all = self._residuals(altitude_m, tas_mps, x_new)
-            r_new = r_new_all[free]
-            if np.linalg.norm(r_new * scale) > np.linalg.norm(r * scale) and np.any(x_new[free] != x[free] + delta):
+            if (np.linalg.norm(r_new_all[free] * scale) > np.linalg.norm(r * scale)
+                    and np.any(x_new[free] != x[free] + delta)):
                 # Pinned at a limit and not improving: the trim needs a control beyond its range.
                 break
-            x, r, r_all = x_new, r_new, r_new_all
+            x, r_all = x_new, r_new_all
         return x, r_all
 
     def _residuals(self, altitude_m, tas_mps, x) -> np.ndarray:
