@@ -52,7 +52,8 @@ def test_v3_learns_its_integral_action_from_the_error_integrals_with_no_trim_aro
 
 def test_versions_are_listed_by_id_and_an_unknown_one_is_refused_naming_it():
     assert list(VERSIONS) == ["SolarUAVAttitude-v0", "SolarUAVAttitude-v1", "SolarUAVAttitude-v2",
-                              "SolarUAVAttitude-v3", "SolarUAVAttitude-v4", "SolarUAVAttitude-v5"]
+                              "SolarUAVAttitude-v3", "SolarUAVAttitude-v4", "SolarUAVAttitude-v5",
+                              "SolarUAVAttitude-v6"]
     assert all(isinstance(v, TaskVersion) and VERSIONS[v.env_id] is v for v in VERSIONS.values())
     assert task_version("SolarUAVAttitude-v1") is V1 and task_version("SolarUAVAttitude-v0") is V0
     with pytest.raises(ValueError, match="'SolarUAVAttitude-v9'") as err:

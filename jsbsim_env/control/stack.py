@@ -214,6 +214,8 @@ FLIGHT_STACKS = {
     "SolarUAVAttitude-v4": StackSettings(window_steps=8, residual_on="lqi", residual_authority=RESIDUAL_AUTHORITY),
     "SolarUAVAttitude-v5": StackSettings(window_steps=8, residual_on="lqi_tuned",
                                          residual_authority=RESIDUAL_AUTHORITY),
+    "SolarUAVAttitude-v6": StackSettings(window_steps=8, residual_on="lqi_robust",
+                                         residual_authority=RESIDUAL_AUTHORITY),
 }
 
 __all__ = ["FLIGHT_STACKS", "RESIDUAL_AUTHORITY", "ControlStack", "StackSettings", "observation_row"]
