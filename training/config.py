@@ -26,6 +26,7 @@ from dataclasses import dataclass, field, fields
 from typing import Any, get_args, get_origin, get_type_hints
 
 from aircraft import AIRCRAFT_NAME, load_aircraft
+from jsbsim_env.control.teacher import TEACHERS
 from jsbsim_env.task.versions import LATEST, task_version
 
 SEED_MAX = 2**64 - 1  # the largest seed torch takes
@@ -131,7 +132,7 @@ class Choice(Allowed):
 
     @property
     def text(self) -> str:
-        return "one of " + ", ".join(self.options)
+        return "one of " + ", ".join(option or '"" (none)' for option in self.options)
 
     def admits(self, value) -> bool:
         return isinstance(value, str) and value in self.options
@@ -284,6 +285,24 @@ class CapsSettings:
 
 
 @dataclass
+class DistillSettings:
+    teacher: str = _f("", "an LQI to start the network from (lqi, lqi_tuned, lqi_robust; empty: none, SAC from random "
+                          "steps): distilled by DAgger, its critics warmed, then SAC with the teacher's flights in "
+                          "each batch (training.trainer); its steps take the place of the random ones",
+                      Choice(("", *TEACHERS)))
+    dagger_frames: int = _f(20_000, "environment steps of the distillation, within collector.total_frames: the "
+                                    "teacher flies every step at first, the network more and more, to all of them",
+                            POSITIVE_INT)
+    updates_per_step: float = _f(1.0, "imitation gradient steps per environment step of the distillation", POSITIVE)
+    critic_warmup_updates: int = _f(5_000, "critic-only gradient steps after the distillation, before SAC moves "
+                                           "the network", COUNT)
+    offline_share: float = _f(0.5, "share of each SAC batch drawn from the steps the teacher flew (as Ball et al. "
+                                   "2023 keep offline data; 0: none)", FRACTION)
+    start_std: float = _f(0.075, "pre-tanh standard deviation of the distilled network's exploration (0.075 of "
+                                 "the travel: the residual's 0.3 of a quarter of it)", Number(0.02, 1))
+
+
+@dataclass
 class LogSettings:
     run_root: str = _f("runs", "folder under which each run gets its own folder", Text())
     log_every_frames: int = _f(1_000, "environment steps between log rows", POSITIVE_INT)
@@ -307,6 +326,7 @@ class TrainConfig:
     optim: OptimSettings = field(default_factory=OptimSettings)
     network: NetworkSettings = field(default_factory=NetworkSettings)
     caps: CapsSettings = field(default_factory=CapsSettings)
+    distill: DistillSettings = field(default_factory=DistillSettings)
     log: LogSettings = field(default_factory=LogSettings)
 
     def __post_init__(self) -> None:
@@ -324,7 +344,15 @@ class TrainConfig:
         if c.frames_per_batch < self.env.num_envs:
             raise ValueError(f"collector.frames_per_batch ({c.frames_per_batch}) must be at least env.num_envs "
                              f"({self.env.num_envs}): each batch takes a step of every aircraft")
-        if c.total_frames <= c.init_random_frames:
+        d = self.distill
+        if d.teacher:
+            if task_version(self.env.task).flight_stack.residual_on:
+                raise ValueError(f"distill.teacher ({d.teacher}) distils an LQI into a network that flies alone; "
+                                 f"env.task {self.env.task} is a residual on an LQI: use a task version without one")
+            if c.total_frames <= d.dagger_frames:
+                raise ValueError(f"collector.total_frames ({c.total_frames}) must exceed distill.dagger_frames "
+                                 f"({d.dagger_frames}): the run would only distil and never learn by SAC")
+        elif c.total_frames <= c.init_random_frames:
             raise ValueError(f"collector.total_frames ({c.total_frames}) must exceed collector.init_random_frames "
                              f"({c.init_random_frames}): the run would only take random steps and learn nothing")
 

@@ -146,12 +146,23 @@ class RecurrentSAC(nn.Module):
                 + (loss_alpha if self.auto_alpha else 0.0),
                 "alpha": alpha.detach(), "entropy": -log_prob.detach().mean()}
 
-    def update(self, batch: TensorDictBase) -> dict[str, float]:
-        """One gradient step of every network and the temperature, then the soft target update."""
+    def update(self, batch: TensorDictBase, actor: bool = True) -> dict[str, float]:
+        """One gradient step of every network and the temperature, then the soft target update;
+        with ``actor`` false, of the critics alone (the actor and the temperature stay)."""
         losses = self.losses(batch)
         self.optimizer.zero_grad(set_to_none=True)
-        losses["total"].backward()
+        (losses["total"] if actor else losses["loss_qvalue"]).backward()
         self.optimizer.step()
         with torch.no_grad():
             torch._foreach_lerp_(self._target, self._online, self.tau)
         return {k: float(v.detach()) for k, v in losses.items() if k not in ("total", "loss_alpha")}
+
+    def imitation_update(self, batch: TensorDictBase) -> dict[str, float]:
+        """One gradient step of the actor's mean towards the batch's ``teacher_action``: the mean
+        squared difference of the actions flown (tanh of the mean), in [-1, 1] units."""
+        loc, _ = self.actor_net(batch["observation"])
+        loss = (torch.tanh(loc) - batch["teacher_action"]).square().mean()
+        self.optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        self.optimizer.step()
+        return {"loss_imitation": float(loss.detach())}

@@ -4,6 +4,14 @@ A run folder holds ``config.json``, ``progress.csv``, TensorBoard events (``tb/`
 (everything needed to resume: networks, targets, optimisers, replay buffer, counters, random
 state) and ``best_policy.pt`` (the best deterministic policy by evaluation return).
 
+A distilling run (``distill.teacher``, one of the aircraft's LQIs) starts the network where that
+LQI is instead of from random steps: for ``distill.dagger_frames`` steps the teacher flies a share
+of the steps falling from all to none (DAgger) while the actor's mean learns the teacher's action on
+every step flown; the network as distilled is kept (``distilled_policy.pt``); the critics alone
+then learn its values (``distill.critic_warmup_updates``); and SAC goes on with
+``distill.offline_share`` of each batch drawn from the steps the teacher flew (as Ball et al. 2023
+keep offline data in every batch), so that fine-tuning does not first unlearn it.
+
 A new run is not started over a folder that holds a run (``checkpoint.pt`` or ``best_policy.pt``):
 that one is resumed or left alone. A folder whose run stopped before its first checkpoint, with
 neither file, has nothing to resume, and a new run starts afresh in it, replacing its logs.
@@ -28,6 +36,7 @@ from pathlib import Path
 import numpy as np
 import torch
 from tensordict import TensorDictBase
+from tensordict.nn import TensorDictModuleBase
 from torchrl.collectors import Collector
 from torchrl.data import LazyTensorStorage, TensorDictReplayBuffer
 from torchrl.envs.utils import ExplorationType, set_exploration_type, step_mdp
@@ -57,6 +66,7 @@ from training.sac import RecurrentSAC
 STORED_KEYS = ("observation", "action", ("next", "observation"), ("next", "reward"), ("next", "done"),
                ("next", "terminated"), ("next", "achieved"))
 EVAL_MAX_STEPS = 500  # interactions per evaluation episode during training
+DISTILLED_POLICY = "distilled_policy.pt"  # a distilling run's network as distilled, before SAC
 
 
 def stored_keys(task: TaskConfig, privileged: bool = False) -> tuple:
@@ -67,7 +77,7 @@ def stored_keys(task: TaskConfig, privileged: bool = False) -> tuple:
 
 CSV_FIELDS = ("frames", "updates", "wall_s", "env_steps_per_s", "episodes", "episode_return", "episode_return_norm",
               "episode_length", "loss_actor", "loss_qvalue", "caps_temporal", "caps_spatial", "alpha", "entropy",
-              "eval_return_norm", "eval_length", "eval_early_ends")
+              "eval_return_norm", "eval_length", "eval_early_ends", "loss_imitation")
 
 
 # What a run folder holds. A folder with either of RUN_FILES holds a run: a new run is not started
@@ -174,6 +184,8 @@ class Counters:
     # Updates owed to the steps collected (``optim.updates_per_step``) and not yet made: a stop
     # request between two updates of a round leaves them to the resumed run.
     update_debt: float = 0.0
+    # A distilling run (``distill.teacher``): whether its critics have been warmed after the distillation.
+    critics_warmed: bool = False
 
 
 class Trainer:
@@ -224,16 +236,20 @@ class Trainer:
         self.eval_task_config = dataclasses.replace(self.task_config, core=eval_core)
         self.window = version.flight_stack.window_steps
         privileged = c.network.asymmetric_critic
-        self.env = make_env(c.env.num_envs, self.task_config, seed=c.seed, window=self.window, privileged=privileged)
+        self.teacher = c.distill.teacher
+        self.env = make_env(c.env.num_envs, self.task_config, seed=c.seed, window=self.window, privileged=privileged,
+                            teacher=self.teacher)
         net = c.network
         obs_size = self.task_config.observation_size
         self.actor = make_actor(net.lstm_hidden, net.mlp_hidden, self.env.action_spec, net.encoder,
                                 self.window, obs_size).to(self.device)
         if version.flight_stack.residual_on:  # the correction starts at zero: training starts from the base controller
             self.actor.module[0].module.start_at_zero(RESIDUAL_START_STD)
+        elif self.teacher:  # imitation moves the mean only: the exploration stays this narrow until SAC
+            self.actor.module[0].module.set_std(c.distill.start_std)
         critics = [make_critic(net.lstm_hidden, net.mlp_hidden, PRIVILEGED_SIZE if privileged else 0, net.encoder,
                                self.window, obs_size).module.to(self.device) for _ in range(2)]
-        self.stored_keys = stored_keys(self.task_config, privileged)
+        self.stored_keys = stored_keys(self.task_config, privileged) + (("teacher_action",) if self.teacher else ())
         self.goal_range = goal_range(self.aircraft)  # relabelled goals stay within the task's
         self.sac = RecurrentSAC(
             self.actor.module[0].module, critics, gamma=c.optim.gamma, tau=c.optim.tau, alpha=c.optim.alpha,
@@ -242,6 +258,12 @@ class Trainer:
             caps_sigma_spatial=c.caps.sigma_spatial, caps_batch_size=c.caps.batch_size,
             caps_action_weights=c.caps.action_weights)
         self.buffer = TensorDictReplayBuffer(storage=LazyTensorStorage(c.buffer.capacity), batch_size=c.buffer.batch_size)
+        # The steps the teacher flew, kept apart for SAC's batches (``distill.offline_share``).
+        self.offline_buffer = (TensorDictReplayBuffer(storage=LazyTensorStorage(min(c.buffer.capacity,
+                                                                                    c.distill.dagger_frames)))
+                               if self.teacher and c.distill.offline_share > 0.0 else None)
+        # The collector's policy: while distilling, the teacher flies a share of the steps.
+        self.policy = TeacherMix(self.actor) if self.teacher else self.actor
         self.counters = Counters()
         self.fingerprint = resume_fingerprint(c)
         if resume:
@@ -360,6 +382,7 @@ class Trainer:
             "sac": self.sac.state_dict(),
             "optimizer": self.sac.optimizer.state_dict(),
             "buffer": buffer_contents(self.buffer),
+            **({"offline_buffer": buffer_contents(self.offline_buffer)} if self.offline_buffer is not None else {}),
             "counters": self.counters.__dict__,
             "torch_rng": torch.get_rng_state(),
             "env_episodes": self.env.base_env._episodes.copy(),
@@ -395,6 +418,11 @@ class Trainer:
         for group in self.sac.optimizer.param_groups:  # a resumed run may lower its learning rate
             group["lr"] = self.config.optim.lr
         restore_buffer(self.buffer, data["buffer"])
+        if self.offline_buffer is not None:
+            if "offline_buffer" not in data:
+                raise CheckpointError(f"checkpoint {self.checkpoint_path} has no offline_buffer: it is damaged or "
+                                      "from another version of the package")
+            restore_buffer(self.offline_buffer, data["offline_buffer"])
         self.counters = Counters(**data["counters"])
         torch.set_rng_state(data["torch_rng"])
         # Resumed environments start new episodes where the run's episode counters stood.
@@ -473,20 +501,86 @@ class Trainer:
         }, path)
 
     # ------------------------------------------------------------------ training
-    def _update(self, batch: TensorDictBase) -> None:
+    def _update(self, batch: TensorDictBase, actor: bool = True) -> None:
         c = self.config
         task = self.task_config
         batch = relabel_goals(batch.to(self.device), c.buffer.relabel_fraction,
                               sideslip_weight=task.sideslip_weight, penalty_tail=task.penalty_tail,
                               roll_weight=task.roll_weight, pitch_weight=task.pitch_weight,
                               goal_range=self.goal_range)
-        losses = self.sac.update(batch)
+        self._record_losses(self.sac.update(batch, actor=actor))
+
+    def _imitation_update(self, batch: TensorDictBase) -> None:
+        """One distillation step towards the teacher's actions (goals as flown: a relabelled goal
+        has no teacher's label)."""
+        losses = self.sac.imitation_update(batch.to(self.device))
+        self._record_losses(losses)
+
+    def _critic_update(self, batch: TensorDictBase) -> None:
+        """One step of the critics alone (the warm-up after the distillation)."""
+        self._update(batch, actor=False)
+
+    def _record_losses(self, losses: dict[str, float]) -> None:
         self.counters.updates += 1
         bad = [key for key, value in losses.items() if not math.isfinite(value)]
         if bad:  # the weights are no longer to be trusted: nothing of them is written
             raise self._diverged(", ".join(bad))
         for key, value in losses.items():
             self._losses.setdefault(key, []).append(value)
+
+    def _sample(self) -> TensorDictBase:
+        """A SAC batch: ``distill.offline_share`` of it from the teacher's steps where a distilling
+        run keeps them, the rest from the replay buffer."""
+        size = self.config.buffer.batch_size
+        offline = self.offline_buffer
+        k = round(size * self.config.distill.offline_share) if offline is not None and len(offline) else 0
+        if k == 0:
+            return self.buffer.sample()
+        # The buffer's own batch size, cut: a sample of another size has TorchRL warn every time.
+        return torch.cat([offline.sample(k), self.buffer.sample()[:size - k]])
+
+    def _learn(self, before: int, stop: list[int]) -> None:
+        """The gradient steps owed to the steps from ``before`` to now: imitation during a
+        distillation, then (once) the distilled policy kept and the critics warmed, then SAC's."""
+        c, frames = self.config, self.counters.frames
+        d = c.distill
+        if self.teacher:
+            imitation = min(frames, d.dagger_frames) - before
+            if imitation > 0:
+                self.counters.update_debt += imitation * d.updates_per_step
+                while self.counters.update_debt >= 1.0 and not stop:
+                    self._imitation_update(self.buffer.sample())
+                    self.counters.update_debt -= 1.0
+            if frames >= d.dagger_frames and not self.counters.critics_warmed and not stop:
+                self._finish_distillation(stop)
+            learning_starts = d.dagger_frames
+        else:
+            learning_starts = c.collector.init_random_frames
+        learn_frames = frames - max(before, learning_starts)  # SAC after the random (or distilling) steps
+        if learn_frames > 0 and (self.counters.critics_warmed or not self.teacher):
+            self.counters.update_debt += learn_frames * c.optim.updates_per_step
+            while self.counters.update_debt >= 1.0 and not stop:  # a stop request ends the round
+                self._update(self._sample())
+                self.counters.update_debt -= 1.0
+        self.check_finite()  # before the collector flies the weights
+
+    def _finish_distillation(self, stop: list[int]) -> None:
+        """The end of a distillation: the network as distilled is evaluated and kept
+        (``distilled_policy.pt``), the teacher flies no more, and the critics learn the distilled
+        policy's values before SAC moves it. A stop request leaves it to the resumed run."""
+        c = self.config
+        self.policy.beta = 0.0
+        result = evaluate_policy(self.actor, self.eval_task_config, episodes=c.log.eval_episodes,
+                                 max_steps=EVAL_MAX_STEPS, window=self.window, stop=stop)
+        if result is None:
+            return
+        self.save_policy(self.run_dir / DISTILLED_POLICY, {**result, "frames": self.counters.frames})
+        self.counters.update_debt = 0.0  # what imitation left owing is not SAC's
+        for _ in range(c.distill.critic_warmup_updates):
+            if stop:
+                return
+            self._critic_update(self._sample())
+        self.counters.critics_warmed = True
 
     def _record_episodes(self, data: TensorDictBase) -> None:
         done = data["next", "done"].squeeze(-1)
@@ -504,11 +598,11 @@ class Trainer:
         # At least one aircraft step each: ``TrainConfig.validate`` keeps frames_per_batch >= num_envs.
         frames_per_batch = c.collector.frames_per_batch - c.collector.frames_per_batch % c.env.num_envs
         # The collector takes random steps in whole batches; rounding up here keeps it from warning.
-        random_frames = frames_per_batch * math.ceil(max(0, c.collector.init_random_frames - self.counters.frames)
-                                                     / frames_per_batch)
+        random_frames = 0 if self.teacher else frames_per_batch * math.ceil(
+            max(0, c.collector.init_random_frames - self.counters.frames) / frames_per_batch)
         collector = Collector(
             # Whole batches, as the collector collects anyway (and warns about otherwise).
-            self.env, self.actor, frames_per_batch=frames_per_batch,
+            self.env, self.policy, frames_per_batch=frames_per_batch,
             total_frames=frames_per_batch * math.ceil(remaining / frames_per_batch),
             init_random_frames=random_frames,
             exploration_type=ExplorationType.RANDOM,
@@ -528,6 +622,8 @@ class Trainer:
         next_eval = _next_multiple(self.counters.frames, c.log.eval_every_frames)
         next_ckpt = _next_multiple(self.counters.frames, c.log.checkpoint_every_frames)
         row: dict = {}
+        if self.teacher:
+            self.policy.beta = dagger_share(self.counters.frames, c.distill.dagger_frames)
         last_eval: float | str = ""
         stop = self._stop = []  # signals received (``_stop_on_signals``)
         with _stop_on_signals(stop):
@@ -536,17 +632,16 @@ class Trainer:
                     data = data.reshape(-1)
                     self._record_episodes(data)
                     self.buffer.extend(data.select(*self.stored_keys).cpu())
+                    if self.offline_buffer is not None and "teacher_acted" in data.keys():  # noqa: SIM118
+                        flown = data[data["teacher_acted"].reshape(-1)]
+                        if flown.numel():
+                            self.offline_buffer.extend(flown.select(*self.stored_keys).cpu())
                     n = data.numel()
                     before = self.counters.frames
                     self.counters.frames += n
-                    # Updates per step collected after the random warm-up.
-                    learn_frames = self.counters.frames - max(before, c.collector.init_random_frames)
-                    if learn_frames > 0:
-                        self.counters.update_debt += learn_frames * c.optim.updates_per_step
-                        while self.counters.update_debt >= 1.0 and not stop:  # a stop request ends the round
-                            self._update(self.buffer.sample())
-                            self.counters.update_debt -= 1.0
-                        self.check_finite()  # before the collector flies the weights
+                    self._learn(before, stop)
+                    if self.teacher:  # the teacher's share of the next batch's steps
+                        self.policy.beta = dagger_share(self.counters.frames, c.distill.dagger_frames)
                     if stop:
                         self._interrupted(stop)
                     collector.update_policy_weights_()
@@ -723,6 +818,32 @@ EVAL_SEED = 20240428  # the evaluation episodes are the same for every run and e
 
 
 @torch.no_grad()
+def dagger_share(frames: int, dagger_frames: int) -> float:
+    """The share of steps the teacher flies at ``frames`` steps into a distillation of
+    ``dagger_frames``: all at the start, none at its end (DAgger's mixture, falling linearly)."""
+    return max(0.0, 1.0 - frames / dagger_frames)
+
+
+class TeacherMix(TensorDictModuleBase):
+    """The collector's policy in a distilling run: the actor's action, or on a share ``beta`` of the
+    steps (drawn for each aircraft and step) the teacher's (``teacher_action``); ``teacher_acted``
+    says which."""
+
+    def __init__(self, actor):
+        super().__init__()
+        self.actor = actor
+        self.in_keys = [*actor.in_keys, "teacher_action"]
+        self.out_keys = [*actor.out_keys, "teacher_acted"]
+        self.beta = 1.0
+
+    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        tensordict = self.actor(tensordict)
+        acted = torch.rand(tensordict.batch_size, device=tensordict.device) < self.beta
+        tensordict["action"] = torch.where(acted[..., None], tensordict["teacher_action"], tensordict["action"])
+        tensordict["teacher_acted"] = acted
+        return tensordict
+
+
 def evaluate_policy(policy, task_config: TaskConfig, episodes: int = 8, max_steps: int = 500, window: int = 8,
                     seed: int = EVAL_SEED, stop: list | None = None) -> dict | None:
     """The evaluation a run makes every ``log.eval_every_frames`` (its best policy is kept by it):

@@ -55,6 +55,7 @@ from jsbsim_env.control.observation import (
 from jsbsim_env.control.pid import SURFACE_INTEGRATOR_LIMIT_DEG, GainSchedule, PIDAttitudeController
 from jsbsim_env.control.residual import ResidualStage, check_residual
 from jsbsim_env.control.stack import observation_row
+from jsbsim_env.control.teacher import TeacherStage
 from jsbsim_env.control.trims import GoalTrim, SurfaceTrim, check_goal_trim_time_constant, check_surface_trim_gain
 from jsbsim_env.sim.core import (
     N_STATE,
@@ -202,9 +203,11 @@ class AttitudeTaskBatch:
 
     Each aircraft's episode depends only on its seed. The per-aircraft work is plain Python on
     short lists: for vectors of 4 to 16 numbers that is several times faster than numpy calls.
+    ``teacher`` (one of ``jsbsim_env.control.teacher.TEACHERS``) flies that LQI in the shadow of
+    the policy: ``teacher_actions`` gives its actions on the latest observations, labels to distil.
     """
 
-    def __init__(self, num_envs: int, config: TaskConfig | None = None):
+    def __init__(self, num_envs: int, config: TaskConfig | None = None, teacher: str = ""):
         self.config = config or TaskConfig()
         self.num_envs = n = check_num_envs(num_envs)
         self.cores = [FlightCore(self.config.core) for _ in range(n)]
@@ -236,6 +239,8 @@ class AttitudeTaskBatch:
         base, authority = self.config.residual_on, self.config.residual_authority
         self._residuals = [ResidualStage(base, authority, self.aircraft) for _ in range(n)] if base else None
         self._residual_inputs: list[list[float] | None] = [None] * n  # each step's, as the policy reads them
+        # A teacher (``jsbsim_env.control.teacher``) beside the policy: its action on what the policy reads.
+        self._teachers = [TeacherStage(teacher, self.aircraft) for _ in range(n)] if teacher else None
         self._speed_holds = ([PIDAttitudeController(schedule, aircraft=self.aircraft) for _ in range(n)]
                              if self._external_share > 0.0 else None)
         self._sideslip_weight, self._roll_weight = self.config.sideslip_weight, self.config.roll_weight
@@ -284,6 +289,9 @@ class AttitudeTaskBatch:
         if self._residuals is not None:
             self._residuals[i].reset()
             self._observe_residual(i)
+        if self._teachers is not None:
+            self._teachers[i].reset()
+            self._observe_teacher(i)
         return np.array(self._observation(i), dtype=np.float32)
 
     # ------------------------------------------------------------------ stepping
@@ -328,6 +336,8 @@ class AttitudeTaskBatch:
                 s, e = self.states[i], self.noise[i]
                 command[3] = self._speed_holds[i].throttle(core.setup.control_interval_s, s[0] + e[0],
                                                            s[EAS_INDEX] + e[EAS_INDEX], self._goal_lists[i][2])
+            if self._teachers is not None:
+                self._teachers[i].follow(command)
             core.fly(command)
             self.states[i] = state = core.last_true_state = core.true_state()
             code = codes[i] = envelope_code(state, core.height_above_ground_m(), envelope)
@@ -356,6 +366,8 @@ class AttitudeTaskBatch:
                     self._integrals[i].integrate(core.setup.control_interval_s, measured, given)
             if self._residuals is not None and not code:
                 self._observe_residual(i)
+            if self._teachers is not None and not code:
+                self._observe_teacher(i)
             obs.append(self._observation(i))
         codes_a = np.array(codes)
         terminated = codes_a > 0
@@ -404,6 +416,18 @@ class AttitudeTaskBatch:
         measured = [x + e for x, e in zip(self.states[i], self.noise[i])]
         self._residual_inputs[i] = self._residuals[i].observe(self.cores[i].setup.control_interval_s, measured,
                                                               self._observed_goal(i))
+
+    def _observe_teacher(self, i: int) -> None:
+        """The teacher's step on the measurement and goal the policy is about to read."""
+        measured = [x + e for x, e in zip(self.states[i], self.noise[i])]
+        self._teachers[i].observe(self.cores[i].setup.control_interval_s, measured, self._observed_goal(i))
+
+    def teacher_actions(self) -> np.ndarray:
+        """Each aircraft's teacher's action on its latest observation, N x 4 in [-1, 1]
+        (``jsbsim_env.control.teacher``); a ``RuntimeError`` where the batch has no teacher."""
+        if self._teachers is None:
+            raise RuntimeError("this task batch has no teacher: make it with teacher=<an LQI's name>")
+        return np.array([t.action for t in self._teachers], dtype=np.float32)
 
     def _observation(self, i: int) -> list[float]:
         """Scaled network observation of aircraft ``i`` (measured state, last action, goal given), as a

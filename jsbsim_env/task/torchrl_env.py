@@ -47,17 +47,20 @@ class SolarUAVAttitudeEnv(EnvBase):
     flown by a speed hold (``TaskConfig.external_throttle``), ``speed_free`` (num_envs, 1) marks them:
     their reward has no airspeed term and their EAS goal is not a goal to relabel. With
     ``privileged``, ``privileged`` (num_envs, ``PRIVILEGED_SIZE``) holds what the aircraft cannot
-    measure (``AttitudeTaskBatch.privileged``), for an asymmetric critic.
+    measure (``AttitudeTaskBatch.privileged``), for an asymmetric critic. With ``teacher`` (an LQI's
+    name, ``jsbsim_env.control.teacher``), ``teacher_action`` (num_envs, 4) holds that LQI's action
+    on each observation, flown in the shadow of the policy: a label to distil, never an input.
     """
 
     batch_locked = True
 
-    def __init__(self, num_envs: int = 8, config: TaskConfig | None = None, seed: int = 0, privileged: bool = False):
+    def __init__(self, num_envs: int = 8, config: TaskConfig | None = None, seed: int = 0, privileged: bool = False,
+                 teacher: str = ""):
         num_envs = check_num_envs(num_envs)  # before TorchRL builds a batch of it
         # The simulation runs on the CPU; collectors move the data to a training device.
         super().__init__(device="cpu", batch_size=torch.Size([num_envs]))
         self.num_envs = num_envs
-        self.batch = AttitudeTaskBatch(num_envs, config)
+        self.batch = AttitudeTaskBatch(num_envs, config, teacher)
         obs_size = self.batch.config.observation_size
         self._episodes = np.zeros(num_envs, dtype=np.int64)
         self._base_seed = int(seed)
@@ -71,6 +74,9 @@ class SolarUAVAttitudeEnv(EnvBase):
         self._privileged = bool(privileged)
         if self._privileged:
             specs["privileged"] = Unbounded(shape=(*n, PRIVILEGED_SIZE), dtype=torch.float32)
+        self._teacher = bool(teacher)
+        if self._teacher:
+            specs["teacher_action"] = Bounded(low=-1.0, high=1.0, shape=(*n, ACTION_SIZE), dtype=torch.float32)
         self.observation_spec = Composite(specs, shape=n)
         self.action_spec = Bounded(low=-1.0, high=1.0, shape=(*n, ACTION_SIZE), dtype=torch.float32)
         self.reward_spec = Unbounded(shape=(*n, 1), dtype=torch.float32)
@@ -132,16 +138,20 @@ class SolarUAVAttitudeEnv(EnvBase):
             values["speed_free"] = torch.tensor(self.batch.external_throttle).reshape(n, 1)
         if self._privileged:
             values["privileged"] = torch.from_numpy(self.batch.privileged())
+        if self._teacher:
+            values["teacher_action"] = torch.from_numpy(self.batch.teacher_actions())
         return TensorDict._new_unsafe(values, batch_size=self.batch_size, device=self.device)
 
 
 def make_env(num_envs: int = 8, config: TaskConfig | None = None, seed: int = 0,
-             window: int = OBSERVATION_WINDOW, privileged: bool = False, aircraft=None) -> TransformedEnv:
+             window: int = OBSERVATION_WINDOW, privileged: bool = False, aircraft=None,
+             teacher: str = "") -> TransformedEnv:
     """The training environment: the 8-step observation window (``observation`` becomes
     (num_envs, window, 20), oldest first), a step counter and the episode reward sum. ``num_envs``
     and ``window`` must be whole numbers >= 1 (the window at most 64, as a policy file's);
     ``privileged`` adds the ``privileged`` entry (the present step's, no window); ``aircraft``
-    (a name or a built aircraft's folder) flies the task on that aircraft instead of ``config``'s."""
+    (a name or a built aircraft's folder) flies the task on that aircraft instead of ``config``'s;
+    ``teacher`` adds the ``teacher_action`` entry (``SolarUAVAttitudeEnv``)."""
     num_envs = check_num_envs(num_envs)
     if aircraft is not None:
         config = config or TaskConfig()
@@ -150,7 +160,7 @@ def make_env(num_envs: int = 8, config: TaskConfig | None = None, seed: int = 0,
         StackSettings(window_steps=window)
     except ValueError:
         raise ValueError(f"window must be a whole number of steps in [1, 64], got {window!r}") from None
-    env = SolarUAVAttitudeEnv(num_envs, config, seed, privileged)
+    env = SolarUAVAttitudeEnv(num_envs, config, seed, privileged, teacher)
     return TransformedEnv(env, Compose(
         UnsqueezeTransform(dim=-2, in_keys=["observation"], out_keys=["observation"]),
         CatFrames(N=window, dim=-2, in_keys=["observation"], out_keys=["observation"]),
