@@ -4,6 +4,8 @@ the teacher's steps in each batch."""
 
 from __future__ import annotations
 
+import copy
+import csv
 import gc
 from dataclasses import replace
 
@@ -22,6 +24,7 @@ from jsbsim_env.task.attitude import AttitudeTaskBatch
 from jsbsim_env.task.versions import VERSIONS
 from training.checkpoint import load_checkpoint
 from training.config import TrainConfig
+from training.sac import RecurrentSAC
 from training.trainer import DISTILLED_POLICY, TeacherMix, Trainer, dagger_share
 
 V3 = VERSIONS["SolarUAVAttitude-v3"]
@@ -128,6 +131,11 @@ def test_a_distilling_run_imitates_then_warms_its_critics_then_learns_with_the_t
     assert trainer.counters.critics_warmed
     # Imitation (1 per step), the warm-up, then SAC (0.25 per step) after the distillation.
     assert trainer.counters.updates == 128 * 1 + 10 + 128 * c.optim.updates_per_step
+    # The actor's Adam moments are SAC's alone: reset after imitation.
+    first = next(trainer.sac.actor_net.parameters())
+    assert int(trainer.sac.optimizer.state[first]["step"]) == 128 * c.optim.updates_per_step
+    # SAC's actor loss kept the teacher's term.
+    assert any(r["loss_imitation"] and r["loss_actor"] for r in csv.DictReader((run / "progress.csv").open()))
     # The offline buffer holds only steps the teacher flew: each action is its label.
     offline = trainer.offline_buffer[:]
     assert 0 < len(trainer.offline_buffer) < 128
@@ -148,3 +156,40 @@ def test_a_distilling_run_imitates_then_warms_its_critics_then_learns_with_the_t
     assert resumed.counters.critics_warmed and len(resumed.offline_buffer) == kept
     resumed.train()
     assert resumed.counters.updates == updates + 64 * c.optim.updates_per_step
+
+
+def test_the_imitation_term_keeps_the_actor_on_the_teacher_only_where_the_goal_is_as_flown(tmp_path, tiny_config):
+    c = tiny_config(total_frames=256)
+    c.env.task, c.distill.teacher, c.distill.dagger_frames = V3.env_id, "lqi", 128
+    trainer = Trainer(c, tmp_path / "run")
+    batch = trainer.env.rollout(40, break_when_any_done=False).reshape(-1)
+    batch = batch.select(*trainer.stored_keys)
+    batch["next", "achieved"] = batch["next", "achieved"] + 0.05  # relabelled goals move away from the flown ones
+    seen = {}
+
+    def update(b, actor=True):
+        seen["batch"] = b
+        return {}
+
+    trainer.sac.update = update
+    trainer.config.buffer.relabel_fraction = 0.5
+    trainer._update(batch)
+    relabelled = seen["batch"]
+    mask = relabelled["imitation_mask"].bool()
+    same = (relabelled["observation"] == batch["observation"]).flatten(1).all(1)
+    assert torch.equal(mask, same) and 0 < int(mask.sum()) < len(batch)
+
+    # SAC's actor update with the term moves the actions towards the teacher's; without it, not.
+    batch["imitation_mask"] = torch.ones(len(batch))
+    after = {}
+    for weight in (0.0, 1e3):
+        torch.manual_seed(0)
+        sac = RecurrentSAC(copy.deepcopy(trainer.sac.actor_net), copy.deepcopy(list(trainer.sac.critics)), gamma=0.99,
+                           tau=0.005, alpha=1e-6, auto_alpha=False, target_entropy=-4.0, lr=1e-3,
+                           caps_kappa_temporal=0.0, caps_kappa_spatial=0.0, caps_sigma_spatial=0.05,
+                           caps_batch_size=8, imitation_weight=weight)
+        for _ in range(50):
+            sac.update(batch)
+        loc, _ = sac.actor_net(batch["observation"])
+        after[weight] = (torch.tanh(loc) - batch["teacher_action"]).square().mean().item()
+    assert after[1e3] < 0.8 * after[0.0]

@@ -298,6 +298,9 @@ class DistillSettings:
                                            "the network", COUNT)
     offline_share: float = _f(0.5, "share of each SAC batch drawn from the steps the teacher flew (as Ball et al. "
                                    "2023 keep offline data; 0: none)", FRACTION)
+    bc_weight: float = _f(0.4, "weight of the teacher's action in SAC's actor loss, times the batch's mean |Q| (TD3+BC's "
+                               "normalisation, Fujimoto and Gu 2021, whose alpha 2.5 is 0.4 here), on the steps whose "
+                               "goals are as flown; 0: none", NON_NEGATIVE)
     start_std: float = _f(0.075, "pre-tanh standard deviation of the distilled network's exploration (0.075 of "
                                  "the travel: the residual's 0.3 of a quarter of it)", Number(0.02, 1))
 

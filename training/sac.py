@@ -65,12 +65,15 @@ class RecurrentSAC(nn.Module):
         auto_alpha: tune the temperature towards ``target_entropy``.
         caps_action_weights: each action's weight in the CAPS differences (``training.caps``);
             None weighs all alike, as the paper.
+        imitation_weight: where a batch has ``teacher_action`` and ``imitation_mask`` (a distilling
+            run's), the actor loss adds this times the batch's mean |Q| times the mean squared
+            difference of its actions from the teacher's on the masked rows (TD3+BC's term).
     """
 
     def __init__(self, actor_net: ActorNet, critics: list[CriticNet], gamma: float, tau: float,
                  alpha: float, auto_alpha: bool, target_entropy: float, lr: float, caps_kappa_temporal: float,
                  caps_kappa_spatial: float, caps_sigma_spatial: float, caps_batch_size: int,
-                 caps_action_weights: list[float] | None = None):
+                 caps_action_weights: list[float] | None = None, imitation_weight: float = 0.0):
         super().__init__()
         self.actor_net = actor_net
         self.critics = nn.ModuleList(critics)
@@ -80,6 +83,8 @@ class RecurrentSAC(nn.Module):
         self.log_alpha = nn.Parameter(torch.tensor(math.log(alpha)), requires_grad=auto_alpha)
         self.gamma, self.tau, self.target_entropy = gamma, tau, target_entropy
         self.auto_alpha = auto_alpha
+        # A distilling run's pull towards its teacher in the actor loss (``imitation_mask`` rows).
+        self.imitation_weight = imitation_weight
         self.caps = (caps_kappa_temporal, caps_kappa_spatial, caps_sigma_spatial, caps_batch_size)
         if caps_action_weights is not None:
             check_action_weights(caps_action_weights, ACTION_SIZE)
@@ -139,8 +144,16 @@ class RecurrentSAC(nn.Module):
         q_pi = torch.min(torch.stack([_head_without_weight_gradients(c.head, torch.cat([f.detach(), action], dim=-1))
                                       for c, f in zip(self.critics, features)]), dim=0).values
         loss_actor = (alpha.detach() * log_prob - q_pi.squeeze(-1)).mean()
+        anchored = batch.get("imitation_mask", None)
+        if anchored is not None and self.imitation_weight > 0.0:
+            # TD3+BC's term: the actions flown (tanh of the mean) towards the teacher's, scaled by
+            # the batch's mean |Q| so that its weight does not depend on the size of the returns.
+            imitation = (torch.tanh(loc_obs) - batch["teacher_action"]).square().mean(-1)
+            loss_imitation = (imitation * anchored).sum() / anchored.sum().clamp(min=1.0)
+            loss_actor = loss_actor + self.imitation_weight * q_pi.detach().abs().mean() * loss_imitation
         loss_alpha = -(self.log_alpha * (log_prob.detach() + self.target_entropy)).mean()
-        return {"loss_qvalue": loss_qvalue, "loss_actor": loss_actor, "loss_alpha": loss_alpha,
+        extra = {"loss_imitation": loss_imitation.detach()} if anchored is not None and self.imitation_weight > 0.0 else {}
+        return {**extra, "loss_qvalue": loss_qvalue, "loss_actor": loss_actor, "loss_alpha": loss_alpha,
                 "caps_temporal": caps_temporal, "caps_spatial": caps_spatial,
                 "total": loss_qvalue + loss_actor + kappa_t * caps_temporal + kappa_s * caps_spatial
                 + (loss_alpha if self.auto_alpha else 0.0),

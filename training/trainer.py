@@ -10,7 +10,8 @@ of the steps falling from all to none (DAgger) while the actor's mean learns the
 every step flown; the network as distilled is kept (``distilled_policy.pt``); the critics alone
 then learn its values (``distill.critic_warmup_updates``); and SAC goes on with
 ``distill.offline_share`` of each batch drawn from the steps the teacher flew (as Ball et al. 2023
-keep offline data in every batch), so that fine-tuning does not first unlearn it.
+keep offline data in every batch) and the teacher's action, labelled on every step, kept in the
+actor loss (``distill.bc_weight``, TD3+BC's term), so that fine-tuning does not first unlearn it.
 
 A new run is not started over a folder that holds a run (``checkpoint.pt`` or ``best_policy.pt``):
 that one is resumed or left alone. A folder whose run stopped before its first checkpoint, with
@@ -256,7 +257,8 @@ class Trainer:
             auto_alpha=c.optim.auto_alpha, target_entropy=c.optim.target_entropy, lr=c.optim.lr,
             caps_kappa_temporal=c.caps.kappa_temporal, caps_kappa_spatial=c.caps.kappa_spatial,
             caps_sigma_spatial=c.caps.sigma_spatial, caps_batch_size=c.caps.batch_size,
-            caps_action_weights=c.caps.action_weights)
+            caps_action_weights=c.caps.action_weights,
+            imitation_weight=c.distill.bc_weight if self.teacher else 0.0)
         self.buffer = TensorDictReplayBuffer(storage=LazyTensorStorage(c.buffer.capacity), batch_size=c.buffer.batch_size)
         # The steps the teacher flew, kept apart for SAC's batches (``distill.offline_share``).
         self.offline_buffer = (TensorDictReplayBuffer(storage=LazyTensorStorage(min(c.buffer.capacity,
@@ -504,10 +506,13 @@ class Trainer:
     def _update(self, batch: TensorDictBase, actor: bool = True) -> None:
         c = self.config
         task = self.task_config
-        batch = relabel_goals(batch.to(self.device), c.buffer.relabel_fraction,
+        flown = batch.to(self.device)
+        batch = relabel_goals(flown, c.buffer.relabel_fraction,
                               sideslip_weight=task.sideslip_weight, penalty_tail=task.penalty_tail,
                               roll_weight=task.roll_weight, pitch_weight=task.pitch_weight,
                               goal_range=self.goal_range)
+        if self.teacher:  # the teacher's label holds for the goal flown, not for a relabelled one
+            batch["imitation_mask"] = (batch["observation"] == flown["observation"]).flatten(1).all(1).float()
         self._record_losses(self.sac.update(batch, actor=actor))
 
     def _imitation_update(self, batch: TensorDictBase) -> None:
@@ -576,6 +581,10 @@ class Trainer:
             return
         self.save_policy(self.run_dir / DISTILLED_POLICY, {**result, "frames": self.counters.frames})
         self.counters.update_debt = 0.0  # what imitation left owing is not SAC's
+        # Adam's moments of the actor are imitation's, whose gradients end small: SAC's first steps
+        # would be several learning rates long. The actor starts SAC with fresh moments.
+        for param in self.sac.actor_net.parameters():
+            self.sac.optimizer.state.pop(param, None)
         for _ in range(c.distill.critic_warmup_updates):
             if stop:
                 return
