@@ -22,7 +22,7 @@ from jsbsim_env.control.residual import RESIDUAL_BASES
 from jsbsim_env.control.teacher import TEACHERS, TeacherStage, check_teacher
 from jsbsim_env.task.attitude import AttitudeTaskBatch
 from jsbsim_env.task.versions import VERSIONS
-from training.checkpoint import load_checkpoint
+from training.checkpoint import checked_load, load_checkpoint
 from training.config import TrainConfig
 from training.sac import RecurrentSAC
 from training.trainer import DISTILLED_POLICY, TeacherMix, Trainer, dagger_share
@@ -142,6 +142,8 @@ def test_a_distilling_run_imitates_then_warms_its_critics_then_learns_with_the_t
     torch.testing.assert_close(offline["action"], offline["teacher_action"])
     # The network as distilled is kept, and flies with its task version's stack alone.
     runtime = PolicyRuntime(run / DISTILLED_POLICY, backend="torch")
+    distilled = checked_load(run / DISTILLED_POLICY)["evaluation"]
+    assert distilled["frames"] == 128 and trainer.counters.best_eval >= distilled["return_norm"]
     assert runtime.stack.residual is None and runtime.stack.settings.error_integrals
     data = load_checkpoint(run / "checkpoint.pt")
     kept, updates = len(trainer.offline_buffer), trainer.counters.updates

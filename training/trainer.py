@@ -571,8 +571,9 @@ class Trainer:
 
     def _finish_distillation(self, stop: list[int]) -> None:
         """The end of a distillation: the network as distilled is evaluated and kept
-        (``distilled_policy.pt``), the teacher flies no more, and the critics learn the distilled
-        policy's values before SAC moves it. A stop request leaves it to the resumed run."""
+        (``distilled_policy.pt``, and as the best policy where it is the best so far), the teacher
+        flies no more, and the critics learn the distilled policy's values before SAC moves it. A
+        stop request leaves it to the resumed run."""
         c = self.config
         self.policy.beta = 0.0
         result = evaluate_policy(self.actor, self.eval_task_config, episodes=c.log.eval_episodes,
@@ -580,6 +581,9 @@ class Trainer:
         if result is None:
             return
         self.save_policy(self.run_dir / DISTILLED_POLICY, {**result, "frames": self.counters.frames})
+        if result["return_norm"] > self.counters.best_eval:  # a candidate for the run's best policy like any other
+            self.save_policy(self.run_dir / "best_policy.pt", {**result, "frames": self.counters.frames})
+            self.counters.best_eval = result["return_norm"]
         self.counters.update_debt = 0.0  # what imitation left owing is not SAC's
         # Adam's moments of the actor are imitation's, whose gradients end small: SAC's first steps
         # would be several learning rates long. The actor starts SAC with fresh moments.
