@@ -57,6 +57,9 @@ ACCEPTED: dict[tuple[str, str], set[str]] = {
     ("train_torchrl", "--caps.kappa_temporal"): {"0"},
     ("train_torchrl", "--caps.action_weights"): {"0"},  # an action left out of the CAPS differences
     ("train_torchrl", "--optim.target_entropy"): {"0", "-1"},  # any finite entropy
+    ("train_torchrl", "--distill.critic_warmup_updates"): {"0"},  # SAC straight after the distillation
+    ("train_torchrl", "--distill.offline_share"): {"0"},  # no batch share kept for the teacher's steps
+    ("train_torchrl", "--distill.bc_weight"): {"0"},  # no pull towards the teacher in SAC
 }
 
 
