@@ -72,6 +72,7 @@ def main(argv: list[str] | None = None) -> int:
         return _train_seeds(args, command)
     torchrl_logs_to_stderr()
     tune_allocator()
+    from jsbsim_env.control.gain_files import GainsMissing
     from training.checkpoint import CheckpointError
     from training.provenance import append_session
     from training.trainer import (
@@ -96,7 +97,7 @@ def main(argv: list[str] | None = None) -> int:
             name = args.run_name or f"sac_seed{config.seed}_{time.strftime('%Y%m%d-%H%M%S')}"
             run_dir = Path(config.log.run_root) / name
         trainer = Trainer(config, run_dir, resume=args.resume is not None)
-    except (CheckpointError, RunLockedError, RunExistsError, RunFolderError, ValueError) as err:
+    except (CheckpointError, GainsMissing, RunLockedError, RunExistsError, RunFolderError, ValueError) as err:
         print(f"train_torchrl: {err}", file=sys.stderr)  # refused before any training: exit 2
         return 2
     for note in trainer.notes:
@@ -149,6 +150,7 @@ def _train_seeds(args, command: list[str]) -> int:
     """Several seeds of one configuration (``training.multiseed``), then their summary."""
     torchrl_logs_to_stderr()
     tune_allocator()
+    from jsbsim_env.control.gain_files import GainsMissing
     from training.checkpoint import CheckpointError
     from training.multiseed import seeds_summary, train_seeds
     from training.trainer import RunFolderError

@@ -195,3 +195,14 @@ def test_the_imitation_term_keeps_the_actor_on_the_teacher_only_where_the_goal_i
         loc, _ = sac.actor_net(batch["observation"])
         after[weight] = (torch.tanh(loc) - batch["teacher_action"]).square().mean().item()
     assert after[1e3] < 0.8 * after[0.0]
+
+
+def test_a_teacher_or_residual_base_the_aircraft_has_no_table_for_is_refused_in_one_line_before_any_work(
+        small_aircraft, tmp_path, load_script, capsys):
+    script = load_script("train_torchrl")
+    for options in (["--env.task", V3.env_id, "--distill.teacher", "lqi_tuned"],
+                    ["--env.task", "SolarUAVAttitude-v6"]):
+        code = script.main(["--aircraft", str(small_aircraft), *options, "--log.run_root", str(tmp_path / "runs")])
+        err = capsys.readouterr().err.strip()
+        assert code == 2 and len(err.splitlines()) == 1 and "has no gain table" in err and "tune_classical" in err
+        assert not (tmp_path / "runs").exists()

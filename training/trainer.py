@@ -43,6 +43,7 @@ from torchrl.data import LazyTensorStorage, TensorDictReplayBuffer
 from torchrl.envs.utils import ExplorationType, set_exploration_type, step_mdp
 
 from aircraft import load_aircraft
+from jsbsim_env.control.gain_files import gain_file
 from jsbsim_env.control.checked_io import DamagedFileError, checked_load, non_finite_entries
 from jsbsim_env.sim.core import CoreConfig
 from jsbsim_env.task.attitude import PRIVILEGED_SIZE, TaskConfig, goal_range
@@ -206,6 +207,8 @@ class Trainer:
         check_device(c.device)
         self.version = version = task_version(c.env.task)
         check_memory(c, version.task.observation_size, version.flight_stack.window_steps)  # before any work
+        for needed in filter(None, (version.flight_stack.residual_on, c.distill.teacher)):
+            gain_file(needed, c.env.aircraft)  # a residual's base or a teacher: GainsMissing, before any work
         self.run_dir = Path(run_dir)
         self.notes: list[str] = []  # what the run did to its folder that its user should hear of
         if resume and not self.run_dir.is_dir():
