@@ -150,7 +150,6 @@ def _train_seeds(args, command: list[str]) -> int:
     """Several seeds of one configuration (``training.multiseed``), then their summary."""
     torchrl_logs_to_stderr()
     tune_allocator()
-    from jsbsim_env.control.gain_files import GainsMissing
     from training.checkpoint import CheckpointError
     from training.multiseed import seeds_summary, train_seeds
     from training.trainer import RunFolderError

@@ -43,8 +43,8 @@ from torchrl.data import LazyTensorStorage, TensorDictReplayBuffer
 from torchrl.envs.utils import ExplorationType, set_exploration_type, step_mdp
 
 from aircraft import load_aircraft
-from jsbsim_env.control.gain_files import gain_file
 from jsbsim_env.control.checked_io import DamagedFileError, checked_load, non_finite_entries
+from jsbsim_env.control.gain_files import gain_file
 from jsbsim_env.sim.core import CoreConfig
 from jsbsim_env.task.attitude import PRIVILEGED_SIZE, TaskConfig, goal_range
 from jsbsim_env.task.torchrl_env import make_env
