@@ -145,14 +145,15 @@ class RecurrentSAC(nn.Module):
                                       for c, f in zip(self.critics, features)]), dim=0).values
         loss_actor = (alpha.detach() * log_prob - q_pi.squeeze(-1)).mean()
         anchored = batch.get("imitation_mask", None)
+        extra = {}
         if anchored is not None and self.imitation_weight > 0.0:
             # TD3+BC's term: the actions flown (tanh of the mean) towards the teacher's, scaled by
             # the batch's mean |Q| so that its weight does not depend on the size of the returns.
             imitation = (torch.tanh(loc_obs) - batch["teacher_action"]).square().mean(-1)
             loss_imitation = (imitation * anchored).sum() / anchored.sum().clamp(min=1.0)
             loss_actor = loss_actor + self.imitation_weight * q_pi.detach().abs().mean() * loss_imitation
+            extra["loss_imitation"] = loss_imitation.detach()
         loss_alpha = -(self.log_alpha * (log_prob.detach() + self.target_entropy)).mean()
-        extra = {"loss_imitation": loss_imitation.detach()} if anchored is not None and self.imitation_weight > 0.0 else {}
         return {**extra, "loss_qvalue": loss_qvalue, "loss_actor": loss_actor, "loss_alpha": loss_alpha,
                 "caps_temporal": caps_temporal, "caps_spatial": caps_spatial,
                 "total": loss_qvalue + loss_actor + kappa_t * caps_temporal + kappa_s * caps_spatial
