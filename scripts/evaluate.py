@@ -26,7 +26,14 @@ from pathlib import Path
 # Only the standard library and training.runtime (no torch) load before the arguments are parsed,
 # so that a mistyped option is refused at once; the simulation and the networks load in main().
 from training.output_folders import OutputFolder, writing
-from training.runtime import OutputFolderError, ScriptParser, add_aircraft_options, episodes_int, run_command
+from training.runtime import (
+    CONTROLLER_NAMES,
+    OutputFolderError,
+    ScriptParser,
+    add_aircraft_options,
+    episodes_int,
+    run_command,
+)
 
 SHIPPED, PID = "shipped", "PID"  # column names of --compare
 # The classical controllers' keys in the JSON output, and what it says about each.
@@ -37,8 +44,6 @@ _ABOUT = {"pid": "gain-scheduled PID", "lqi": "gain-scheduled LQI",
           "lqi_tuned": "gain-scheduled LQI, tuned on nonlinear flights",
           "pid_robust": "gain-scheduled PID, tuned on nonlinear flights in the training episodes' conditions",
           "lqi_robust": "gain-scheduled LQI, tuned on nonlinear flights in the training episodes' conditions"}
-# jsbsim_env.control.factory.CONTROLLER_NAMES, spelled out: the factory loads the simulation
-CONTROLLER_NAMES = ("policy", "pid", "lqi", "pid_tuned", "lqi_tuned", "pid_robust", "lqi_robust")
 DEFAULT_EPISODES = 50
 # The files --plots receives (training.evaluation.suite.doublet_runs): an earlier evaluation's are
 # refused, or replaced with --overwrite.

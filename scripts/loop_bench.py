@@ -37,6 +37,7 @@ import numpy as np
 from aircraft import load_aircraft
 from training.output_folders import OutputFolder, writing
 from training.runtime import (
+    CONTROLLER_NAMES,
     OutputFolderError,
     ScriptParser,
     add_aircraft_options,
@@ -56,8 +57,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = ScriptParser(__file__, description=__doc__.split("\n\n")[0])
     p.add_argument("--mode", choices=("realtime", "lockstep"), default="realtime",
                    help="realtime: 25 Hz frame clock with deadlines; lockstep: wait for every answer (deterministic)")
-    p.add_argument("--controller", choices=("policy", "pid", "lqi", "pid_tuned", "lqi_tuned", "pid_robust", "lqi_robust"),
-                   default="policy",
+    p.add_argument("--controller", choices=CONTROLLER_NAMES, default="policy",
                    help="the controller process flies this (factory.CONTROLLER_NAMES)")
     p.add_argument("--policy", default=None, help="policy file (.pt); the shipped policy when omitted")
     add_aircraft_options(p, "the route flies at the middle of its envelope")

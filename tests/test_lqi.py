@@ -12,6 +12,7 @@ from jsbsim_env.control import lqi, tuning
 from jsbsim_env.control.factory import CONTROLLER_NAMES, make_controller
 from jsbsim_env.sim.core import COMMAND_HIGH, COMMAND_LOW
 from jsbsim_env.sim.simulation import Simulation
+from training import runtime
 
 ALTITUDES_M = (500.0, 5000.0, 20000.0)
 
@@ -135,7 +136,11 @@ def test_lqi_is_a_controller_by_name():
 
 def test_the_commands_take_the_lqi_by_name(load_script):
     evaluate = load_script("evaluate")
+    assert runtime.CONTROLLER_NAMES == CONTROLLER_NAMES  # spelled out there for the commands' options
     assert evaluate.CONTROLLER_NAMES == CONTROLLER_NAMES
+    loop_bench = load_script("loop_bench")
+    for name in CONTROLLER_NAMES:
+        assert loop_bench.build_parser().parse_args(["--controller", name]).controller == name
     assert evaluate.build_parser().parse_args(["--controller", "lqi"]).controller == "lqi"
     from training.evaluation.report import CONTROLLERS, EXTRA_CONTROLLERS
 

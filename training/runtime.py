@@ -354,6 +354,9 @@ MAX_ROUNDS = 1000  # repeats of a timing
 rounds_int = number_type(int, 1, MAX_ROUNDS, name="rounds")
 non_negative_int = number_type(int, 0, name="non_negative_int")
 seed_int = number_type(int, 0, name="seed")  # numpy's generators take seeds >= 0
+# jsbsim_env.control.factory.CONTROLLER_NAMES, spelled out for the commands' --controller choices:
+# the factory loads the simulation, which a mistyped option need not wait for (a test keeps the two equal).
+CONTROLLER_NAMES = ("policy", "pid", "lqi", "pid_tuned", "lqi_tuned", "pid_robust", "lqi_robust")
 
 
 # ---------------------------------------------------------------------------------- results of an earlier run
