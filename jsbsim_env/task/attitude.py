@@ -288,10 +288,9 @@ class AttitudeTaskBatch:
             self._integrals[i].reset()
         if self._residuals is not None:
             self._residuals[i].reset()
-            self._observe_residual(i)
         if self._teachers is not None:
             self._teachers[i].reset()
-            self._observe_teacher(i)
+        self._observe_controllers(i)
         return np.array(self._observation(i), dtype=np.float32)
 
     # ------------------------------------------------------------------ stepping
@@ -364,10 +363,8 @@ class AttitudeTaskBatch:
                     self._trims[i].integrate(core.setup.control_interval_s, measured, given)
                 if self._integrals is not None:
                     self._integrals[i].integrate(core.setup.control_interval_s, measured, given)
-            if self._residuals is not None and not code:
-                self._observe_residual(i)
-            if self._teachers is not None and not code:
-                self._observe_teacher(i)
+            if not code:
+                self._observe_controllers(i)
             obs.append(self._observation(i))
         codes_a = np.array(codes)
         terminated = codes_a > 0
@@ -411,16 +408,17 @@ class AttitudeTaskBatch:
             goal = [goal[0], goal[1], self.states[i][EAS_INDEX] + self.noise[i][EAS_INDEX]]
         return goal
 
-    def _observe_residual(self, i: int) -> None:
-        """The residual's base controller's step on the measurement the policy is about to read."""
+    def _observe_controllers(self, i: int) -> None:
+        """The step of the classical controllers beside the policy (a residual's base, a teacher)
+        on the measurement and goal the policy is about to read."""
+        if self._residuals is None and self._teachers is None:
+            return
         measured = [x + e for x, e in zip(self.states[i], self.noise[i])]
-        self._residual_inputs[i] = self._residuals[i].observe(self.cores[i].setup.control_interval_s, measured,
-                                                              self._observed_goal(i))
-
-    def _observe_teacher(self, i: int) -> None:
-        """The teacher's step on the measurement and goal the policy is about to read."""
-        measured = [x + e for x, e in zip(self.states[i], self.noise[i])]
-        self._teachers[i].observe(self.cores[i].setup.control_interval_s, measured, self._observed_goal(i))
+        dt_s, goal = self.cores[i].setup.control_interval_s, self._observed_goal(i)
+        if self._residuals is not None:
+            self._residual_inputs[i] = self._residuals[i].observe(dt_s, measured, goal)
+        if self._teachers is not None:
+            self._teachers[i].observe(dt_s, measured, goal)
 
     def teacher_actions(self) -> np.ndarray:
         """Each aircraft's teacher's action on its latest observation, N x 4 in [-1, 1]
