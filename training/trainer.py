@@ -584,9 +584,7 @@ class Trainer:
         if result is None:
             return
         self.save_policy(self.run_dir / DISTILLED_POLICY, {**result, "frames": self.counters.frames})
-        if result["return_norm"] > self.counters.best_eval:  # a candidate for the run's best policy like any other
-            self.save_policy(self.run_dir / "best_policy.pt", {**result, "frames": self.counters.frames})
-            self.counters.best_eval = result["return_norm"]
+        self._keep_if_best(result)  # a candidate for the run's best policy like any other
         self.counters.update_debt = 0.0  # what imitation left owing is not SAC's
         # Adam's moments of the actor are imitation's, whose gradients end small: SAC's first steps
         # would be several learning rates long. The actor starts SAC with fresh moments.
@@ -726,10 +724,14 @@ class Trainer:
                                  max_steps=EVAL_MAX_STEPS, window=self.window, stop=self._stop)
         if result is None:
             return None
+        self._keep_if_best(result)
+        return result
+
+    def _keep_if_best(self, result: dict) -> None:
+        """The policy evaluated as ``result`` becomes ``best_policy.pt`` where it beats the best so far."""
         if result["return_norm"] > self.counters.best_eval:
             self.save_policy(self.run_dir / "best_policy.pt", {**result, "frames": self.counters.frames})
             self.counters.best_eval = result["return_norm"]
-        return result
 
     # ------------------------------------------------------------------ logging
     def _open_logs(self):
