@@ -12,7 +12,7 @@ from jsbsim_env.control.observation import OBS_SIZE
 from jsbsim_env.control.stack import StackSettings
 from jsbsim_env.sim.core import CoreConfig
 from jsbsim_env.task.attitude import TaskConfig
-from jsbsim_env.task.versions import LATEST, V0, V1, V2, V3, VERSIONS, TaskVersion, task_version
+from jsbsim_env.task.versions import LATEST, V0, V1, V2, V3, V5, V7, VERSIONS, TaskVersion, task_version
 
 
 def test_v0_is_the_papers_task_flown_by_the_network_alone():
@@ -50,10 +50,16 @@ def test_v3_learns_its_integral_action_from_the_error_integrals_with_no_trim_aro
     assert {**V3.task.__dict__, "surface_trim_gain": 0.5, "error_integrals": False} == V1.task.__dict__
 
 
+def test_v7_is_v5_with_goals_held_longer():
+    assert V7.env_id == "SolarUAVAttitude-v7" and V7.trained_as_flown and V7.flight_stack == V5.flight_stack
+    assert V7.task.goal_hold_s == (10.0, 30.0) and V5.task.goal_hold_s == (3.0, 10.0)
+    assert {**V7.task.__dict__, "goal_hold_s": V5.task.goal_hold_s} == V5.task.__dict__
+
+
 def test_versions_are_listed_by_id_and_an_unknown_one_is_refused_naming_it():
     assert list(VERSIONS) == ["SolarUAVAttitude-v0", "SolarUAVAttitude-v1", "SolarUAVAttitude-v2",
                               "SolarUAVAttitude-v3", "SolarUAVAttitude-v4", "SolarUAVAttitude-v5",
-                              "SolarUAVAttitude-v6"]
+                              "SolarUAVAttitude-v6", "SolarUAVAttitude-v7"]
     assert all(isinstance(v, TaskVersion) and VERSIONS[v.env_id] is v for v in VERSIONS.values())
     assert task_version("SolarUAVAttitude-v1") is V1 and task_version("SolarUAVAttitude-v0") is V0
     with pytest.raises(ValueError, match="'SolarUAVAttitude-v9'") as err:
