@@ -251,6 +251,35 @@ def test_backlash_width_and_servo_rate_limit_reach_jsbsim():
     core.reset(seed=0)
     assert core.sim["fcs/backlash-width-deg"] == pytest.approx(0.3)
     assert core.sim["fcs/surface-rate-limit-deg_s"] == 40.0
+    assert core.setup.servo_rate_limit_degps == pytest.approx(40.0)
+
+
+def test_servo_rate_scale_draws_each_episodes_rate_and_leaves_the_other_draws_alone():
+    nominal = FlightCore(CoreConfig())
+    drawn = FlightCore(CoreConfig(servo_rate_scale=(0.1, 1.0)))
+    rates = []
+    for seed in range(6):
+        nominal.reset(seed=seed)
+        drawn.reset(seed=seed)
+        assert nominal.setup.servo_rate_limit_degps == pytest.approx(100.0)  # the paper's aircraft's own
+        rate = drawn.setup.servo_rate_limit_degps
+        assert 10.0 - 1e-9 <= rate <= 100.0 + 1e-9 and drawn.sim["fcs/surface-rate-limit-deg_s"] == pytest.approx(rate)
+        # The same altitude, airspeed, delay and coefficients: the rate is drawn after all of them.
+        assert (drawn.setup.altitude_m, drawn.setup.delay_s, drawn.setup.scales) == \
+            (nominal.setup.altitude_m, nominal.setup.delay_s, nominal.setup.scales)
+        rates.append(rate)
+    assert len(set(rates)) == len(rates)
+    drawn.reset(seed=3)
+    assert drawn.setup.servo_rate_limit_degps == pytest.approx(rates[3])  # a function of the seed
+    scaled = FlightCore(CoreConfig(servo_rate_limit_degps=40.0, servo_rate_scale=(0.5, 0.5)))
+    scaled.reset(seed=0)
+    assert scaled.setup.servo_rate_limit_degps == pytest.approx(20.0)
+
+
+@pytest.mark.parametrize("bad", [(0.0, 1.0), (0.5, 0.2), (float("nan"), 1.0), (0.1, float("inf"))])
+def test_a_servo_rate_scale_that_is_not_a_positive_range_is_refused(bad):
+    with pytest.raises(ValueError, match="servo_rate_scale must be a finite range"):
+        CoreConfig(servo_rate_scale=bad)
 
 
 # ----------------------------------------------------------------------------- reward

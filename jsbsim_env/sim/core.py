@@ -117,6 +117,9 @@ class CoreConfig:
     # Every surface servo's rate limit; None: the aircraft's own (its description's
     # actuators.surface_rate_limit_deg_per_s in its FlightControl.xml; the paper's: 100).
     servo_rate_limit_degps: float | None = None
+    # Each episode's servo rate limit is the one above times a draw, uniform in its logarithm, from
+    # this range (training on slow servos as well as the nominal one); (1, 1): no draw.
+    servo_rate_scale: tuple[float, float] = (1.0, 1.0)
     noise_scale: float = 1.0  # multiplies every sigma of the paper's Table 3 (robustness sweeps)
     parameter_strength: float = 1.0  # multiplies each Table 4 draw's distance from 1 (0: nominal aircraft)
     altitude_range_m: tuple[float, float] | None = None  # None: the aircraft's start range
@@ -153,6 +156,10 @@ class CoreConfig:
             raise ValueError(f"turbulence_sigma_mps must be finite and >= 0, got {self.turbulence_sigma_mps}")
         if self.servo_rate_limit_degps is not None and not self.servo_rate_limit_degps > 0.0:  # NaN fails too
             raise ValueError(f"servo_rate_limit_degps must be positive, got {self.servo_rate_limit_degps}")
+        low, high = self.servo_rate_scale
+        if not 0.0 < low <= high < math.inf:  # NaN fails too
+            raise ValueError(f"servo_rate_scale must be a finite range (low, high) with 0 < low <= high, "
+                             f"got {(low, high)}")
         # The start ranges as ranges here; FlightCore checks them against where its aircraft can start.
         for name in ("altitude_range_m", "eas_range_mps"):
             if getattr(self, name) is None:
@@ -191,6 +198,7 @@ class EpisodeSetup:
     delay_s: float
     scales: dict[str, float]
     trim_command: np.ndarray  # aileron, elevator, rudder (deg), throttle
+    servo_rate_limit_degps: float  # every surface servo's, as flown
 
 
 @dataclass(frozen=True)
@@ -372,6 +380,10 @@ class FlightCore:
         f["fcs/backlash-width-deg"] = cfg.backlash_deg
         if cfg.servo_rate_limit_degps is not None:  # else the model's own, as its file sets it
             f["fcs/surface-rate-limit-deg_s"] = cfg.servo_rate_limit_degps
+        if cfg.servo_rate_scale != (1.0, 1.0):  # drawn last, and only here, so other streams stay as they were
+            scale = math.exp(rng.uniform(*np.log(cfg.servo_rate_scale)))
+            f["fcs/surface-rate-limit-deg_s"] = scale * f["fcs/surface-rate-limit-deg_s"]
+        servo_rate = float(f["fcs/surface-rate-limit-deg_s"])
         for s in self._set_gust + self._set_gust_rate:
             s(0.0)
         # The nominal aircraft's trim, interpolated; with scaled coefficients the start is then
@@ -391,7 +403,7 @@ class FlightCore:
         sim.set_initial_conditions(alt, tas0, alpha_deg=trim.alpha_deg, pitch_deg=trim.alpha_deg + math.degrees(att[1]),
                                    roll_deg=math.degrees(att[0]), heading_deg=heading, beta_deg=trim.beta_deg,
                                    rates_radps=tuple(rates))
-        self.setup = EpisodeSetup(seed, alt, eas, interval, delay, scales, trim_command)
+        self.setup = EpisodeSetup(seed, alt, eas, interval, delay, scales, trim_command, servo_rate)
         self.turbulence = None
         if cfg.turbulence:
             self.turbulence = turb.dryden_series(cfg.max_steps + 1, alt, tas, self.span_m, interval,
