@@ -3,6 +3,8 @@ their gymnasium registration, and a clear error for a version the package does n
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -12,7 +14,7 @@ from jsbsim_env.control.observation import OBS_SIZE
 from jsbsim_env.control.stack import StackSettings
 from jsbsim_env.sim.core import CoreConfig
 from jsbsim_env.task.attitude import TaskConfig
-from jsbsim_env.task.versions import LATEST, V0, V1, V2, V3, V5, V7, VERSIONS, TaskVersion, task_version
+from jsbsim_env.task.versions import LATEST, V0, V1, V2, V3, V5, V7, V8, VERSIONS, TaskVersion, task_version
 
 
 def test_v0_is_the_papers_task_flown_by_the_network_alone():
@@ -56,10 +58,18 @@ def test_v7_is_v5_with_goals_held_longer():
     assert {**V7.task.__dict__, "goal_hold_s": V5.task.goal_hold_s} == V5.task.__dict__
 
 
+def test_v8_is_v5_trained_on_long_delays_and_slow_servos_too():
+    assert V8.env_id == "SolarUAVAttitude-v8" and V8.trained_as_flown and V8.flight_stack == V5.flight_stack
+    assert V8.task.core.delay_s == (0.040, 0.200) and V8.task.core.servo_rate_scale == (0.1, 1.0)
+    assert replace(V8.task.core, delay_s=V5.task.core.delay_s, servo_rate_scale=(1.0, 1.0)) == V5.task.core
+    assert {**V8.task.__dict__, "core": V5.task.core} == V5.task.__dict__
+
+
 def test_versions_are_listed_by_id_and_an_unknown_one_is_refused_naming_it():
     assert list(VERSIONS) == ["SolarUAVAttitude-v0", "SolarUAVAttitude-v1", "SolarUAVAttitude-v2",
                               "SolarUAVAttitude-v3", "SolarUAVAttitude-v4", "SolarUAVAttitude-v5",
-                              "SolarUAVAttitude-v6", "SolarUAVAttitude-v7"]
+                              "SolarUAVAttitude-v6", "SolarUAVAttitude-v7",
+                              "SolarUAVAttitude-v8"]
     assert all(isinstance(v, TaskVersion) and VERSIONS[v.env_id] is v for v in VERSIONS.values())
     assert task_version("SolarUAVAttitude-v1") is V1 and task_version("SolarUAVAttitude-v0") is V0
     with pytest.raises(ValueError, match="'SolarUAVAttitude-v9'") as err:

@@ -218,6 +218,8 @@ FLIGHT_STACKS = {
                                          residual_authority=RESIDUAL_AUTHORITY),
     "SolarUAVAttitude-v7": StackSettings(window_steps=8, residual_on="lqi_tuned",
                                          residual_authority=RESIDUAL_AUTHORITY),
+    "SolarUAVAttitude-v8": StackSettings(window_steps=8, residual_on="lqi_tuned",
+                                         residual_authority=RESIDUAL_AUTHORITY),
 }
 
 __all__ = ["FLIGHT_STACKS", "RESIDUAL_AUTHORITY", "ControlStack", "StackSettings", "observation_row"]

@@ -157,6 +157,7 @@ class CoreConfig:
         if self.servo_rate_limit_degps is not None and not self.servo_rate_limit_degps > 0.0:  # NaN fails too
             raise ValueError(f"servo_rate_limit_degps must be positive, got {self.servo_rate_limit_degps}")
         low, high = self.servo_rate_scale
+        object.__setattr__(self, "servo_rate_scale", (float(low), float(high)))  # a list read from JSON compares too
         if not 0.0 < low <= high < math.inf:  # NaN fails too
             raise ValueError(f"servo_rate_scale must be a finite range (low, high) with 0 < low <= high, "
                              f"got {(low, high)}")

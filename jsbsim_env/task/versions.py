@@ -12,6 +12,7 @@ version it was made with.
 | ``SolarUAVAttitude-v5`` | v4's on the aircraft's tuned LQI (``lqi_tuned``; ``scripts/tune_classical.py`` writes it for a built aircraft) | the same: trained as flown |
 | ``SolarUAVAttitude-v6`` | v4's on the aircraft's LQI tuned on flights drawn from v1's training episodes (``lqi_robust``; ``tune_classical.py --flights robust``) | the same: trained as flown |
 | ``SolarUAVAttitude-v7`` | v5's with each goal held 10-30 s (v1: 3-10 s), so that most of an episode is spent holding a goal in turbulence, which the benchmark scores, rather than in step responses | v5's: trained as flown |
+| ``SolarUAVAttitude-v8`` | v5's with the benchmark's stressed axes in the training draw: delays 40-200 ms, and each episode's servo rate limit the aircraft's own times 0.1-1 (uniform in its logarithm) | v5's: trained as flown |
 
 Both train in the paper's disturbances otherwise (noise, random interval, coefficient spread,
 0.5 m/s turbulence) and are evaluated in the paper's.
@@ -61,7 +62,10 @@ V2, V3, V4, V5, V6 = (trained_as_flown(f"SolarUAVAttitude-v{n}", V1.task, FLIGHT
                       for n in (2, 3, 4, 5, 6))
 V7 = trained_as_flown("SolarUAVAttitude-v7", replace(V1.task, goal_hold_s=(10.0, 30.0)),
                       FLIGHT_STACKS["SolarUAVAttitude-v7"])
-VERSIONS = {v.env_id: v for v in (V0, V1, V2, V3, V4, V5, V6, V7)}
+V8 = trained_as_flown("SolarUAVAttitude-v8",
+                      replace(V1.task, core=replace(V1.task.core, delay_s=(0.040, 0.200), servo_rate_scale=(0.1, 1.0))),
+                      FLIGHT_STACKS["SolarUAVAttitude-v8"])
+VERSIONS = {v.env_id: v for v in (V0, V1, V2, V3, V4, V5, V6, V7, V8)}
 LATEST = V1.env_id
 
 
