@@ -101,8 +101,8 @@ def test_config_round_trip_and_command_line():
     assert TrainConfig().caps.action_weights == [1.0, 1.0, 1.0, 1.0] != c.caps.action_weights
     with pytest.raises(SystemExit):
         parser.parse_args(["--caps.action_weights", "0.5", "1"])
-    with pytest.raises(ValueError, match="SolarUAVAttitude-v7"):
-        TrainConfig.from_namespace(parser.parse_args(["--env.task", "SolarUAVAttitude-v7"]))
+    with pytest.raises(ValueError, match="SolarUAVAttitude-v99"):
+        TrainConfig.from_namespace(parser.parse_args(["--env.task", "SolarUAVAttitude-v99"]))
 
 
 @pytest.mark.parametrize("text", ["yes", "no", "0", "1", "on", "True", "FALSE", "flase", ""])
@@ -135,8 +135,8 @@ def test_a_configuration_from_another_version_is_refused_naming_its_settings(dat
 
 
 def test_a_task_version_the_package_does_not_have_is_refused_naming_it():
-    with pytest.raises(ValueError, match="'SolarUAVAttitude-v7'") as err:
-        TrainConfig.from_dict({"env": {"task": "SolarUAVAttitude-v7"}})
+    with pytest.raises(ValueError, match="'SolarUAVAttitude-v99'") as err:
+        TrainConfig.from_dict({"env": {"task": "SolarUAVAttitude-v99"}})
     assert "SolarUAVAttitude-v0" in str(err.value) and "SolarUAVAttitude-v1" in str(err.value)  # the known ones
     assert TrainConfig.from_dict({"env": {"task": "SolarUAVAttitude-v0"}}).env.task == "SolarUAVAttitude-v0"
 
@@ -234,8 +234,8 @@ def test_a_run_trains_in_its_task_versions_disturbances_and_evaluates_in_the_pap
     c.env.disturbances = False  # the ideal setting stays ideal, in training and in its evaluation
     ideal = Trainer(c, tmp_path / "ideal")
     assert ideal.task_config.core == ideal.eval_task_config.core == CoreConfig.ideal()
-    c.env.task = "SolarUAVAttitude-v7"
-    with pytest.raises(ValueError, match="SolarUAVAttitude-v7"):
+    c.env.task = "SolarUAVAttitude-v99"
+    with pytest.raises(ValueError, match="SolarUAVAttitude-v99"):
         Trainer(c, tmp_path / "unknown")
 
 
