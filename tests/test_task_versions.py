@@ -72,8 +72,8 @@ def test_versions_are_listed_by_id_and_an_unknown_one_is_refused_naming_it():
                               "SolarUAVAttitude-v8"]
     assert all(isinstance(v, TaskVersion) and VERSIONS[v.env_id] is v for v in VERSIONS.values())
     assert task_version("SolarUAVAttitude-v1") is V1 and task_version("SolarUAVAttitude-v0") is V0
-    with pytest.raises(ValueError, match="'SolarUAVAttitude-v9'") as err:
-        task_version("SolarUAVAttitude-v9")
+    with pytest.raises(ValueError, match="'SolarUAVAttitude-v99'") as err:
+        task_version("SolarUAVAttitude-v99")
     assert "SolarUAVAttitude-v0" in str(err.value) and "SolarUAVAttitude-v1" in str(err.value)
 
 
