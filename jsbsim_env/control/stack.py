@@ -206,20 +206,19 @@ RESIDUAL_AUTHORITY = 0.25
 # The stack each registered task version (``jsbsim_env.task.versions``) flies with, by its id: what a
 # policy file that records the version must record as its stack (``policy.load_policy``).
 _GOAL_AND_SURFACE_TRIM = StackSettings(window_steps=8, goal_trim_time_constant_s=20.0, surface_trim_gain=2.0)
+# v5 and the versions that change only its training episodes (v7, v8) fly the same stack.
+_RESIDUAL_ON_TUNED_LQI = StackSettings(window_steps=8, residual_on="lqi_tuned", residual_authority=RESIDUAL_AUTHORITY)
 FLIGHT_STACKS = {
     "SolarUAVAttitude-v0": StackSettings(),
     "SolarUAVAttitude-v1": _GOAL_AND_SURFACE_TRIM,
     "SolarUAVAttitude-v2": _GOAL_AND_SURFACE_TRIM,
     "SolarUAVAttitude-v3": StackSettings(window_steps=8, error_integrals=True),
     "SolarUAVAttitude-v4": StackSettings(window_steps=8, residual_on="lqi", residual_authority=RESIDUAL_AUTHORITY),
-    "SolarUAVAttitude-v5": StackSettings(window_steps=8, residual_on="lqi_tuned",
-                                         residual_authority=RESIDUAL_AUTHORITY),
+    "SolarUAVAttitude-v5": _RESIDUAL_ON_TUNED_LQI,
     "SolarUAVAttitude-v6": StackSettings(window_steps=8, residual_on="lqi_robust",
                                          residual_authority=RESIDUAL_AUTHORITY),
-    "SolarUAVAttitude-v7": StackSettings(window_steps=8, residual_on="lqi_tuned",
-                                         residual_authority=RESIDUAL_AUTHORITY),
-    "SolarUAVAttitude-v8": StackSettings(window_steps=8, residual_on="lqi_tuned",
-                                         residual_authority=RESIDUAL_AUTHORITY),
+    "SolarUAVAttitude-v7": _RESIDUAL_ON_TUNED_LQI,
+    "SolarUAVAttitude-v8": _RESIDUAL_ON_TUNED_LQI,
 }
 
 __all__ = ["FLIGHT_STACKS", "RESIDUAL_AUTHORITY", "ControlStack", "StackSettings", "observation_row"]
