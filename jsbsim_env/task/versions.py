@@ -14,8 +14,8 @@ version it was made with.
 | ``SolarUAVAttitude-v7`` | v5's with each goal held 10-30 s (v1: 3-10 s), so that most of an episode is spent holding a goal in turbulence, which the benchmark scores, rather than in step responses | v5's: trained as flown |
 | ``SolarUAVAttitude-v8`` | v5's with the benchmark's stressed axes in the training draw: delays 40-200 ms, and each episode's servo rate limit the aircraft's own times 0.1-1 (uniform in its logarithm) | v5's: trained as flown |
 
-Both train in the paper's disturbances otherwise (noise, random interval, coefficient spread,
-0.5 m/s turbulence) and are evaluated in the paper's.
+All train in the paper's disturbances otherwise (noise, random interval, coefficient spread,
+0.5 m/s turbulence; v8 also slows the servos) and are evaluated in the paper's.
 """
 
 from __future__ import annotations
