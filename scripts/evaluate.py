@@ -38,12 +38,13 @@ from training.runtime import (
 SHIPPED, PID = "shipped", "PID"  # column names of --compare
 # The classical controllers' keys in the JSON output, and what it says about each.
 _LABELS = {"pid": PID, "lqi": "LQI", "pid_tuned": "PID_tuned", "lqi_tuned": "LQI_tuned", "pid_robust": "PID_robust",
-           "lqi_robust": "LQI_robust"}
+           "lqi_robust": "LQI_robust", "lqi_stressed": "LQI_stressed"}
 _ABOUT = {"pid": "gain-scheduled PID", "lqi": "gain-scheduled LQI",
           "pid_tuned": "gain-scheduled PID, tuned on nonlinear flights",
           "lqi_tuned": "gain-scheduled LQI, tuned on nonlinear flights",
           "pid_robust": "gain-scheduled PID, tuned on nonlinear flights in the training episodes' conditions",
-          "lqi_robust": "gain-scheduled LQI, tuned on nonlinear flights in the training episodes' conditions"}
+          "lqi_robust": "gain-scheduled LQI, tuned on nonlinear flights in the training episodes' conditions",
+          "lqi_stressed": "gain-scheduled LQI, tuned on nonlinear flights with a long delay and a slow servo among them"}
 DEFAULT_EPISODES = 50
 # The files --plots receives (training.evaluation.suite.doublet_runs): an earlier evaluation's are
 # refused, or replaced with --overwrite.

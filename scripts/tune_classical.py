@@ -4,6 +4,7 @@ Table 9 aircraft) with CMA-ES and a stated budget, and write the tuned gain tabl
     python scripts/tune_classical.py --controller pid --budget 100   # writes jsbsim_env/control/pid_tuned_gains.json
     python scripts/tune_classical.py --controller lqi --budget 100   # writes jsbsim_env/control/lqi_tuned_gains.json
     python scripts/tune_classical.py --controller lqi --flights robust   # writes jsbsim_env/control/lqi_robust_gains.json
+    python scripts/tune_classical.py --controller lqi --flights stressed   # writes jsbsim_env/control/lqi_stressed_gains.json
 
 The method is in ``training/evaluation/classical_tuning.py``: the parameters (multipliers of the
 PID's gain groups, or of the LQI's Bryson weights), the score (``heldout.relative_score`` against
@@ -11,7 +12,7 @@ the shipped PID, the score the policy's selection uses), and the robustness case
 pass. The shipped tables (``pid_gains.json``, ``lqi_gains.json``) are never replaced; the tuned one
 records the budget actually spent (evaluations, flights per evaluation, wall-clock seconds, cores)
 and is flown as the controller ``pid_tuned`` or ``lqi_tuned`` (``pid_robust``, ``lqi_robust`` with
-``--flights robust``; ``jsbsim_env.control.factory``).
+``--flights robust``, ``lqi_stressed`` with ``--flights stressed``; ``jsbsim_env.control.factory``).
 Needs the ``cma`` package: ``pip install '.[tune]'``.
 """
 
@@ -32,6 +33,8 @@ from training.runtime import (
 )
 
 DEFAULT_BUDGET = 100
+FLIGHT_SETS = ("heldout", "robust", "stressed")  # training.evaluation.heldout.FLIGHT_SETS, to parse without loading it
+TABLE_SUFFIX = {"heldout": "tuned", "robust": "robust", "stressed": "stressed"}  # the table written: <controller>_<suffix>
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -47,10 +50,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--workers", type=workers_int, default=1, help="processes flying candidates at once")
     parser.add_argument("--quick", action="store_true", help="30 s flights, for checks (not a tuning to use)")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing --out file")
-    parser.add_argument("--flights", choices=("heldout", "robust"), default="heldout",
+    parser.add_argument("--flights", choices=FLIGHT_SETS, default="heldout",
                         help="heldout: the held-out flights, nominal conditions (writes <controller>_tuned); robust: "
                              "the same flights in conditions drawn from the training episodes' distribution "
-                             "(delay, interval, coefficient spread, turbulence; writes <controller>_robust)")
+                             "(delay, interval, coefficient spread, turbulence; writes <controller>_robust); "
+                             "stressed (the LQI only): the held-out flights and the turbulent one again at the "
+                             "benchmark's stressed delay and servo rate (writes lqi_stressed)")
     parser.add_argument("--aircraft", default=None,
                         help="the aircraft tuned: a packaged aircraft's name or a folder built by "
                              "scripts/build_aircraft.py --out, from its designed tables (default: the paper's; "
@@ -58,6 +63,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.budget < 2:
         parser.error(f"--budget must be at least 2 (one CMA-ES generation), got {args.budget}")
+    if args.flights == "stressed" and args.controller != "lqi":
+        parser.error("--flights stressed tunes the LQI (lqi_stressed, the base of a residual): use --controller lqi")
 
     from aircraft import AircraftError
     from jsbsim_env.control import gain_files
@@ -66,8 +73,7 @@ def main(argv: list[str] | None = None) -> int:
         designed = [gain_files.gain_file(kind, args.aircraft) for kind in ("pid", "lqi")]
     except (AircraftError, gain_files.GainsMissing) as err:
         parser.exit(2, f"tune_classical: --aircraft: {err}\n")
-    robust = args.flights == "robust"
-    out = args.out or gain_files.gain_file_path(f"{args.controller}_{'robust' if robust else 'tuned'}", args.aircraft)
+    out = args.out or gain_files.gain_file_path(f"{args.controller}_{TABLE_SUFFIX[args.flights]}", args.aircraft)
     if out.resolve() in {path.resolve() for path in designed}:
         parser.error(f"--out {out} is a shipped gain table, which tuning never replaces: give another file")
     # A table is read as the controller its name or its record says: never write one as the other's.
@@ -92,7 +98,7 @@ def main(argv: list[str] | None = None) -> int:
     from training.evaluation.classical_tuning import tune, tuning_flights, write_tuned_table
 
     try:  # the flights' seeds, against the frozen test set, before anything else
-        tuning_flights(args.quick, args.aircraft, robust)
+        tuning_flights(args.quick, args.aircraft, args.flights)
     except ValueError as err:
         print(err, file=sys.stderr)
         return 2
@@ -101,7 +107,7 @@ def main(argv: list[str] | None = None) -> int:
     except ImportError:
         parser.exit(2, "tune_classical: needs the cma package: pip install '.[tune]'\n")
     table = tune(args.controller, args.budget, seed=args.seed, workers=args.workers, quick=args.quick,
-                 progress=lambda text: print(text, flush=True), aircraft=args.aircraft, robust=robust)
+                 progress=lambda text: print(text, flush=True), aircraft=args.aircraft, flights=args.flights)
     write_tuned_table(table, out)
     record = table["tuning"]
     budget = record["budget"]

@@ -132,7 +132,7 @@ def test_the_robust_flights_are_the_held_out_ones_in_conditions_drawn_from_train
     from jsbsim_env.task.versions import LATEST, task_version
 
     core = task_version(LATEST).task.core
-    nominal, robust = heldout.heldout_flights(), heldout.heldout_flights(robust=True)
+    nominal, robust = heldout.heldout_flights(), heldout.heldout_flights(flights="robust")
     assert list(robust) == list(nominal)
     seeds = {config.seed for config in robust.values()}
     assert seeds == set(heldout.ROBUST_SEEDS.values()) and not seeds & set(heldout.SEEDS.values())
@@ -144,17 +144,33 @@ def test_the_robust_flights_are_the_held_out_ones_in_conditions_drawn_from_train
         assert config.parameters == ("table4" if nominal[name].parameters == "nominal" else nominal[name].parameters)
         assert bool(config.turbulence_legs) == (name != "calm_15km")  # the calm flight measures chatter
     assert len({config.delay_s for config in robust.values()}) == len(robust)  # each flight its own draw
-    assert heldout.heldout_flights(robust=True) == robust  # the same draws every time
+    assert heldout.heldout_flights(flights="robust") == robust  # the same draws every time
 
 
-def test_a_quick_robust_tuning_records_its_flights_and_writes_a_table_the_lqi_flies(tmp_path):
+@pytest.mark.parametrize("flights", ["robust", "stressed"])
+def test_a_quick_tuning_on_other_flights_records_them_and_writes_a_table_the_lqi_flies(flights, tmp_path):
     pytest.importorskip("cma")
-    out = tmp_path / "lqi_robust.json"
-    assert _main(["--controller", "lqi", "--flights", "robust", "--budget", "2", "--quick", "--out", str(out)]) == 0
+    out = tmp_path / f"lqi_{flights}.json"
+    assert _main(["--controller", "lqi", "--flights", flights, "--budget", "2", "--quick", "--out", str(out)]) == 0
     record = json.loads(out.read_text())["tuning"]
-    assert record["flights"] == "robust"
-    assert {f["seed"] for f in record["budget"]["flights"].values()} == set(heldout.ROBUST_SEEDS.values())
+    assert record["flights"] == flights
+    seeds = {"robust": set(heldout.ROBUST_SEEDS.values()),
+             "stressed": {*heldout.SEEDS.values(), *heldout.STRESSED_SEEDS.values()}}[flights]
+    recorded = record["budget"]["flights"]
+    assert {f["seed"] for f in recorded.values()} == seeds
+    assert record["budget"]["flights_per_evaluation"] == len(recorded) == len(heldout.heldout_flights(flights=flights))
+    # Each stressed flight records its stress beside the delay it would otherwise fly with.
+    assert {name: f["stress"] for name, f in recorded.items() if "stress" in f} == (
+        {"turbulent_5km_delay_ms": {"delay_ms": 200.0},
+         "turbulent_5km_servo_rate_limit_degps": {"servo_rate_limit_degps": 10.0}} if flights == "stressed" else {})
     assert LQIAttitudeController(gains_path=out).schedule is not None
+
+
+def test_the_stressed_tuning_is_the_lqis(tmp_path):
+    with pytest.raises(SystemExit) as exc:
+        _main(["--controller", "pid", "--flights", "stressed", "--budget", "2", "--quick", "--out", str(tmp_path / "p.json")])
+    assert exc.value.code == 2
+    assert not (tmp_path / "p.json").exists()
 
 
 def test_the_robust_tuned_controllers_fly_by_name_from_their_shipped_tables():
@@ -164,3 +180,49 @@ def test_the_robust_tuned_controllers_fly_by_name_from_their_shipped_tables():
         record = json.loads(gain_files.gain_file(name).read_text())["tuning"]
         assert record["flights"] == "robust" and record["budget"]["candidate_evaluations"] == 100
         assert record["score"] < record["start_score"]
+
+
+def test_the_stressed_flights_are_the_held_out_ones_and_the_turbulent_one_at_the_benchmarks_stresses():
+    from training.evaluation.benchmark import STRESSED, StressedRoute
+
+    nominal, stressed = heldout.heldout_flights(), heldout.heldout_flights(flights="stressed")
+    assert {name: stressed[name] for name in nominal} == nominal  # the held-out four, as they are
+    extra = {name: config for name, config in stressed.items() if name not in nominal}
+    assert sorted(extra) == sorted(f"turbulent_5km_{axis}" for axis in heldout.STRESSED_SEEDS)
+    for name, config in extra.items():
+        axis = name.removeprefix("turbulent_5km_")
+        assert isinstance(config, StressedRoute) and config.stress == ((axis, STRESSED[axis]),)
+        assert config.seed == heldout.STRESSED_SEEDS[axis] and config.seed not in TEST_SEEDS
+        assert config.altitude_m == nominal["turbulent_5km"].altitude_m and config.turbulence_legs == (0,)
+        assert config.duration_s == heldout.STRESSED_FLIGHT_S
+    core = extra["turbulent_5km_servo_rate_limit_degps"].core_config()
+    assert core.servo_rate_limit_degps == pytest.approx(STRESSED["servo_rate_limit_degps"])
+    assert extra["turbulent_5km_delay_ms"].core_config().delay_s == pytest.approx((0.2, 0.2))
+    with pytest.raises(ValueError, match="one of heldout, robust, stressed"):
+        heldout.heldout_flights(flights="gusty")
+
+
+def test_a_score_against_a_reference_that_has_not_flown_its_flights_is_refused():
+    scores = {"ended_early": False, "turbulent_5km": {"rmse_roll_deg": 0.1}, "turbulent_5km_delay_ms": {"rmse_roll_deg": 0.2},
+              "surface_activity": {s: 1.0 for s in heldout.SURFACES}}
+    reference = {"ended_early": False, "turbulent_5km": {"rmse_roll_deg": 0.2}, "surface_activity": scores["surface_activity"]}
+    with pytest.raises(ValueError, match="has not flown turbulent_5km_delay_ms"):
+        heldout.relative_score(scores, reference)
+    reference["turbulent_5km_delay_ms"] = {"rmse_roll_deg": 0.2}
+    assert heldout.relative_score(scores, reference) == pytest.approx(math.sqrt(0.5))
+
+
+def test_a_missing_stressed_table_says_how_to_write_it(tmp_path, monkeypatch):
+    monkeypatch.setattr(gain_files, "PACKAGED_DIR", tmp_path)
+    with pytest.raises(gain_files.GainsMissing, match="tune_classical.py --controller lqi --flights stressed`"):
+        gain_files.gain_file("lqi_stressed")
+    with pytest.raises(gain_files.GainsMissing, match="tune_classical.py --controller pid`"):
+        gain_files.gain_file("pid_tuned")
+
+
+def test_the_stressed_lqi_flies_by_name_from_its_shipped_table_and_kept_every_stressed_flight():
+    assert isinstance(factory.make_controller("lqi_stressed"), LQIAttitudeController)
+    record = json.loads(gain_files.gain_file("lqi_stressed").read_text())["tuning"]
+    assert record["flights"] == "stressed" and record["budget"]["candidate_evaluations"] == 100
+    assert record["score"] < record["start_score"] and not record["scores"]["ended_early"]
+    assert set(record["scores"]) >= {f"turbulent_5km_{axis}" for axis in heldout.STRESSED_SEEDS}

@@ -23,7 +23,7 @@ RESIDUAL_VERSIONS = [v for v in VERSIONS.values() if v.flight_stack.residual_on]
 
 
 def test_the_residual_versions_are_trained_as_flown_and_read_the_base_controller():
-    assert {v.flight_stack.residual_on for v in RESIDUAL_VERSIONS} == {"lqi", "lqi_tuned", "lqi_robust"}
+    assert {v.flight_stack.residual_on for v in RESIDUAL_VERSIONS} == {"lqi", "lqi_tuned", "lqi_robust", "lqi_stressed"}
     for version in RESIDUAL_VERSIONS:
         assert version.trained_as_flown
         assert version.task.observation_size == observation_size() + len(RESIDUAL_NAMES) == 28

@@ -286,7 +286,7 @@ class CapsSettings:
 
 @dataclass
 class DistillSettings:
-    teacher: str = _f("", "an LQI to start the network from (lqi, lqi_tuned, lqi_robust; empty: none, SAC from random "
+    teacher: str = _f("", "an LQI to start the network from (lqi, lqi_tuned, lqi_robust, lqi_stressed; empty: none, SAC from random "
                           "steps): distilled by DAgger, its critics warmed, then SAC with the teacher's flights in "
                           "each batch (training.trainer); its steps take the place of the random ones",
                       Choice(("", *TEACHERS)))

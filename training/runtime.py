@@ -356,7 +356,7 @@ non_negative_int = number_type(int, 0, name="non_negative_int")
 seed_int = number_type(int, 0, name="seed")  # numpy's generators take seeds >= 0
 # jsbsim_env.control.factory.CONTROLLER_NAMES, spelled out for the commands' --controller choices:
 # the factory loads the simulation, which a mistyped option need not wait for (a test keeps the two equal).
-CONTROLLER_NAMES = ("policy", "pid", "lqi", "pid_tuned", "lqi_tuned", "pid_robust", "lqi_robust")
+CONTROLLER_NAMES = ("policy", "pid", "lqi", "pid_tuned", "lqi_tuned", "pid_robust", "lqi_robust", "lqi_stressed")
 
 
 # ---------------------------------------------------------------------------------- results of an earlier run

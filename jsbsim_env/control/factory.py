@@ -13,9 +13,10 @@ from jsbsim_env.control.gain_files import FILES, PACKAGED_DIR, GainTableError, g
 from jsbsim_env.control.gain_files import GainsMissing as TunedGainsMissing
 from jsbsim_env.control.pid import PIDAttitudeController
 
-# Tuned on the held-out flights (nominal conditions) and on the robust ones (the training episodes'
-# distribution of conditions): ``training.evaluation.classical_tuning``.
-TUNED_CONTROLLER_NAMES = ("pid_tuned", "lqi_tuned", "pid_robust", "lqi_robust")
+# Tuned on the held-out flights (nominal conditions), on the robust ones (the training episodes'
+# distribution of conditions) and, the LQI, on the stressed ones (a long delay and a slow servo
+# among them): ``training.evaluation.classical_tuning``.
+TUNED_CONTROLLER_NAMES = ("pid_tuned", "lqi_tuned", "pid_robust", "lqi_robust", "lqi_stressed")
 CONTROLLER_NAMES = ("policy", "pid", "lqi", *TUNED_CONTROLLER_NAMES)
 TUNED_GAIN_FILES = {name: PACKAGED_DIR / FILES[name] for name in TUNED_CONTROLLER_NAMES}  # the paper's aircraft's
 
@@ -70,7 +71,7 @@ def make_controller(name: str, policy=None, backend: str = "onnx", network_alone
     (``PolicyRuntime``); refused on an aircraft other than the one it was trained on unless
     ``transfer``. ``"pid"``: the gain-scheduled PID; ``"lqi"``: the gain-scheduled LQI;
     ``"pid_tuned"``, ``"lqi_tuned"``: the same with their tuned gain files, ``"pid_robust"``,
-    ``"lqi_robust"`` with those tuned on the robust flights. The classical
+    ``"lqi_robust"`` with those tuned on the robust flights, ``"lqi_stressed"`` on the stressed ones. The classical
     controllers fly the aircraft's own gain tables (``gain_files``)."""
     if name == "policy":
         from jsbsim_env.control.policy import PolicyRuntime
@@ -87,7 +88,7 @@ def make_controller(name: str, policy=None, backend: str = "onnx", network_alone
         return LQIAttitudeController(aircraft=aircraft)
     if name in ("pid_tuned", "pid_robust"):
         return PIDAttitudeController(gains_path=tuned_gain_file(name, aircraft), aircraft=aircraft)
-    if name in ("lqi_tuned", "lqi_robust"):
+    if name in ("lqi_tuned", "lqi_robust", "lqi_stressed"):
         from jsbsim_env.control.lqi import LQIAttitudeController
 
         return LQIAttitudeController(gains_path=tuned_gain_file(name, aircraft), aircraft=aircraft)

@@ -15,7 +15,8 @@ from aircraft import Aircraft, load_aircraft
 PACKAGED_DIR = Path(__file__).parent  # the paper's aircraft's tables, kept in git
 FILES = {"pid": "pid_gains.json", "lqi": "lqi_gains.json", "pid_tuned": "pid_tuned_gains.json",
          "lqi_tuned": "lqi_tuned_gains.json", "pid_robust": "pid_robust_gains.json",
-         "lqi_robust": "lqi_robust_gains.json"}
+         "lqi_robust": "lqi_robust_gains.json", "lqi_stressed": "lqi_stressed_gains.json"}
+TUNINGS = {"tuned": "heldout", "robust": "robust", "stressed": "stressed"}  # a tuned table's suffix: its --flights
 
 
 class GainsMissing(FileNotFoundError):
@@ -42,10 +43,10 @@ def gain_file(kind: str, aircraft: Aircraft | str | Path | None = None) -> Path:
     path = gain_file_path(kind, aircraft)
     if not path.is_file():
         found = load_aircraft(aircraft)
-        if kind.endswith(("_tuned", "_robust")):
-            controller, tuning = kind.split("_")
+        controller, _, tuning = kind.partition("_")
+        if tuning in TUNINGS:
             how = (f"`python scripts/tune_classical.py --controller {controller}"
-                   + (" --flights robust" if tuning == "robust" else "")
+                   + (f" --flights {TUNINGS[tuning]}" if tuning != "tuned" else "")
                    + ("" if found.papers else f" --aircraft {found.root}") + "`")
         else:
             how = "`python scripts/build_aircraft.py DESCRIPTION --out DIR` (it designs the PID and the LQI)"

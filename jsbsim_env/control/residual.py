@@ -4,7 +4,8 @@
     command = base command + authority x (action x the aircraft's action scale), clipped to the travel
 
 The base is one of the aircraft's LQIs (``RESIDUAL_BASES``: the designed table, the one tuned on nominal
-flights or the one tuned on the training episodes' conditions);
+flights, the one tuned on the training episodes' conditions or the one tuned with a long delay and a
+slow servo among its flights);
 ``authority`` is the correction's share of each surface's travel (and of half the throttle range).
 A network whose output is zero flies exactly the base controller, so training starts from it
 (``jsbsim_env.control.network.ActorNet.start_at_zero``). The network reads the base's command
@@ -24,7 +25,7 @@ from jsbsim_env.control.gain_files import gain_file
 from jsbsim_env.control.lqi import LQIAttitudeController
 from jsbsim_env.control.observation import ACTION_OFFSET, action_scale
 
-RESIDUAL_BASES = ("lqi", "lqi_tuned", "lqi_robust")
+RESIDUAL_BASES = ("lqi", "lqi_tuned", "lqi_robust", "lqi_stressed")
 MAX_RESIDUAL_AUTHORITY = 1.0
 # The integrators' scales in the network's input: roll, pitch and sideslip in deg s, EAS in m.
 INTEGRATOR_SCALE_DEG_S = 5.0

@@ -219,6 +219,8 @@ FLIGHT_STACKS = {
                                          residual_authority=RESIDUAL_AUTHORITY),
     "SolarUAVAttitude-v7": _RESIDUAL_ON_TUNED_LQI,
     "SolarUAVAttitude-v8": _RESIDUAL_ON_TUNED_LQI,
+    "SolarUAVAttitude-v9": StackSettings(window_steps=8, residual_on="lqi_stressed",
+                                         residual_authority=RESIDUAL_AUTHORITY),
 }
 
 __all__ = ["FLIGHT_STACKS", "RESIDUAL_AUTHORITY", "ControlStack", "StackSettings", "observation_row"]

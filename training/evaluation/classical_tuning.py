@@ -27,10 +27,13 @@ the wall-clock time and the cores (``budget_record``).
 The flights' seeds are ``heldout.SEEDS``; every tuning checks them against the frozen test set
 (``seeds.check_not_test_seed``) before it flies, so no gain is ever chosen on the benchmark's flights.
 
-With ``robust``, the flights are the robust ones (``heldout.heldout_flights(robust=True)``: the same
+With ``flights="robust"``, the flights are the robust ones (``heldout.heldout_flights``: the same
 four in conditions drawn from the training episodes' distribution, on seeds of their own): the
 classical controller then has the information the policy trains on. The tuned tables are flown as
-``pid_robust`` and ``lqi_robust``; the nominal-tuned ones stay.
+``pid_robust`` and ``lqi_robust``; the nominal-tuned ones stay. With ``flights="stressed"`` (the
+LQI's only), the held-out four and the turbulent one again at the benchmark's stressed delay and
+servo rate: a candidate that ends either early is rejected, so the LQI keeps the margin a slow
+control loop asks for (flown as ``lqi_stressed``, the base of ``SolarUAVAttitude-v9``'s residual).
 
 Another aircraft is tuned the same way from its own tables (``gain_files``: the PID's and the LQI's
 that its build designed), on the held-out flights moved into its envelope.
@@ -123,12 +126,12 @@ def refuse_test_seeds(seeds, tool: str = TOOL) -> None:
     check_not_test_seed(seeds, tool)
 
 
-def tuning_flights(quick: bool = False, aircraft=None, robust: bool = False) -> dict:
-    """The held-out flights (``heldout.heldout_flights``; the robust ones with ``robust``) the tuning
+def tuning_flights(quick: bool = False, aircraft=None, flights: str = "heldout") -> dict:
+    """The held-out flights (``heldout.heldout_flights``, the set ``flights``) the tuning
     scores on, their seeds checked against the frozen test set; a test seed raises ``ValueError``
     naming the tool."""
     try:
-        flights = heldout.heldout_flights(quick, aircraft, robust)
+        flights = heldout.heldout_flights(quick, aircraft, flights)
     except ValueError as err:
         raise ValueError(f"{TOOL}: {err}") from None
     refuse_test_seeds([config.seed for config in flights.values()])
@@ -249,16 +252,16 @@ def controller_from_table(controller: str, table: dict, aircraft=None):
     return lqi.LQIAttitudeController(lqi.LQIGainSchedule.from_table(table, "(candidate)"), aircraft=aircraft)
 
 
-def fly_table(controller: str, table: dict, quick: bool, aircraft=None, robust: bool = False) -> dict:
+def fly_table(controller: str, table: dict, quick: bool, aircraft=None, flights: str = "heldout") -> dict:
     """``heldout.heldout_scores`` of the controller with ``table`` (a process pool's task)."""
     return heldout.heldout_scores(partial(controller_from_table, controller, table, aircraft=aircraft), quick,
-                                  aircraft, robust)
+                                  aircraft, flights)
 
 
-def reference_scores(quick: bool, aircraft=None, robust: bool = False) -> dict:
+def reference_scores(quick: bool, aircraft=None, flights: str = "heldout") -> dict:
     """The designed PID's held-out scores (the shipped one on the paper's aircraft): what every
     candidate's score is relative to."""
-    return heldout.heldout_scores(partial(PIDAttitudeController, aircraft=aircraft), quick, aircraft, robust)
+    return heldout.heldout_scores(partial(PIDAttitudeController, aircraft=aircraft), quick, aircraft, flights)
 
 
 @dataclass
@@ -288,7 +291,7 @@ class _Runner:
 
 
 def evaluate_candidates(problem: Problem, xs: Sequence, reference: dict, quick: bool = False,
-                        runner: _Runner | None = None, aircraft=None, robust: bool = False) -> list[Evaluation]:
+                        runner: _Runner | None = None, aircraft=None, flights: str = "heldout") -> list[Evaluation]:
     """Each candidate's score: its design checked for robustness (infinite, unflown, where it fails),
     then the held-out flights, relative to ``reference`` (the PID's scores)."""
     runner = runner or _Runner()
@@ -303,7 +306,7 @@ def evaluate_candidates(problem: Problem, xs: Sequence, reference: dict, quick: 
             continue
         out.append(Evaluation(x, math.nan, None, table=table))
         to_fly.append(len(out) - 1)
-    flown = runner.map(fly_table, [(problem.controller, out[i].table, quick, aircraft, robust) for i in to_fly])
+    flown = runner.map(fly_table, [(problem.controller, out[i].table, quick, aircraft, flights) for i in to_fly])
     for i, scores in zip(to_fly, flown):
         ev = out[i]
         ev.scores = scores
@@ -322,15 +325,15 @@ def default_popsize(n: int) -> int:
 
 
 def tune(controller: str, budget: int, seed: int = 0, workers: int = 1, quick: bool = False,
-         progress: Callable[[str], None] | None = None, aircraft: str | None = None, robust: bool = False) -> dict:
+         progress: Callable[[str], None] | None = None, aircraft: str | None = None, flights: str = "heldout") -> dict:
     """CMA-ES over ``controller``'s parameters with ``budget`` candidate evaluations (generations of
     ``min(default_popsize, budget)`` candidates: up to ``budget``, none beyond), from the shipped
     design; returns the best candidate's gain table with its ``"tuning"`` record (the budget used,
     the scores, every evaluation's score). ``seed`` seeds CMA-ES (as ``seed + 1``: cma reads 0 as
     "from the clock"). ``aircraft``: a packaged aircraft's name or a built aircraft's folder (the
-    paper's by default). ``robust``: on the robust flights (module docstring). Refuses flights on the
+    paper's by default). ``flights``: the set flown (``heldout.FLIGHT_SETS``, module docstring). Refuses flights on the
     frozen test set before any work."""
-    flights = tuning_flights(quick, aircraft, robust)  # before anything else, even the optimiser's import
+    flown_flights = tuning_flights(quick, aircraft, flights)  # before anything else, even the optimiser's import
     import cma
 
     if budget < 2:
@@ -349,9 +352,9 @@ def tune(controller: str, budget: int, seed: int = 0, workers: int = 1, quick: b
                                              else ""))
     with optional_pool(workers) as pool:
         runner = _Runner(pool)
-        reference = reference_scores(quick, aircraft, robust)
+        reference = reference_scores(quick, aircraft, flights)
         say(f"reference (the shipped PID) flown: {time.perf_counter() - started:.1f} s")
-        start = evaluate_candidates(problem, [problem.x0], reference, quick, runner, aircraft, robust)[0]
+        start = evaluate_candidates(problem, [problem.x0], reference, quick, runner, aircraft, flights)[0]
         if not math.isfinite(start.score):
             raise RuntimeError(f"{TOOL}: the shipped {controller.upper()} design scores infinite ({start.reason})")
         say(f"start (the shipped {controller.upper()}): score {start.score:.4f}")
@@ -364,7 +367,7 @@ def tune(controller: str, budget: int, seed: int = 0, workers: int = 1, quick: b
         stop_reason = None
         for g in range(generations):
             xs = es.ask()
-            evals = evaluate_candidates(problem, xs, reference, quick, runner, aircraft, robust)
+            evals = evaluate_candidates(problem, xs, reference, quick, runner, aircraft, flights)
             es.tell(xs, [e.told for e in evals])
             history.extend(evals)
             for e in evals:
@@ -379,7 +382,7 @@ def tune(controller: str, budget: int, seed: int = 0, workers: int = 1, quick: b
                 break
     wall_s = time.perf_counter() - started
     table = {k: v for k, v in best.table.items()}
-    flight_s = sum(c.duration_s for c in flights.values())
+    flight_s = sum(c.duration_s for c in flown_flights.values())
     flown = load_aircraft(aircraft)
     table["tuning"] = {
         "controller": controller,
@@ -393,11 +396,12 @@ def tune(controller: str, budget: int, seed: int = 0, workers: int = 1, quick: b
         "rate_tau_s": RATE_TAU_S,
         "score": best.score, "start_score": start.score,
         "best_is_start": best is start,
-        "flights": "robust" if robust else "heldout",
+        "flights": flights,
         "score_definition": ("training.evaluation.heldout.relative_score against the shipped PID (pid_gains.json)"
-                             + (", on the robust flights (heldout.heldout_flights(robust=True))" if robust else "")),
+                             + (f", on the {flights} flights (heldout.heldout_flights(flights={flights!r}))"
+                                if flights != "heldout" else "")),
         "scores": best.scores, "start_scores": start.scores, "reference_scores": reference,
-        "budget": budget_record(budget, history, generations, popsize, flights, flight_s, wall_s, workers,
+        "budget": budget_record(budget, history, generations, popsize, flown_flights, flight_s, wall_s, workers,
                                 quick, stop_reason),
         "history": [{"x": e.x, "score": e.score, "reason": e.reason} for e in history],
     }
@@ -420,7 +424,8 @@ def budget_record(budget: int, history: list[Evaluation], generations: int, pops
         "flights_per_evaluation": len(flights),
         "flights": {name: {"altitude_m": c.altitude_m, "seed": c.seed, "duration_s": c.duration_s,
                            "parameters": c.parameters, "turbulence_legs": list(c.turbulence_legs),
-                           "delay_s": c.delay_s} for name, c in flights.items()},
+                           "delay_s": c.delay_s, **({"stress": dict(c.stress)} if getattr(c, "stress", ()) else {})}
+                    for name, c in flights.items()},
         "simulated_s_per_evaluation": flight_s,
         "quick": quick,
         "wall_clock_s": round(wall_s, 1),

@@ -13,12 +13,18 @@ tracking with a surface that chatters between large deflections every step; that
 controller to fly, and the errors alone do not show it. ``relative_score`` refuses a policy whose
 surface moves more than ``CHATTER_LIMIT`` times the reference's.
 
-The robust flights (``robust=True``) are the same four drawn from the default task version's
+Three sets of flights (``FLIGHT_SETS``). The held-out ones (``"heldout"``) are the table above. The
+robust flights (``"robust"``) are the same four drawn from the default task version's
 training distribution instead (``training_conditions``), on route seeds of their own
 (``ROBUST_SEEDS``): each flight's control delay and interval drawn from its ranges, the coefficient
 spread of Table 4 where the held-out flight is nominal, and turbulence on legs 1-3 of the turbulent
 and Table 9 flights; the calm flight stays calm, where it measures the surfaces' activity. A
-controller tuned on them has had the information the policy trains on.
+controller tuned on them has had the information the policy trains on. The stressed flights
+(``"stressed"``) are the held-out four and, beside them, the turbulent flight's first 300 s
+(turbulence from the start, the benchmark's robustness window) once with each of the benchmark's
+stressed delay and servo rate (``benchmark.STRESSED``: 200 ms, 10 deg/s), on seeds of their own
+(``STRESSED_SEEDS``): a controller tuned on them must keep every flight to its end where the
+control loop is slow, which one tuned on nominal flights need not.
 
 The report flies 10 km (turbulence and Table 9), 1 km and 20 km, all with route seed 11
 (``training.evaluation.report.ROUTE_SEED``); none of these flights is one of its. Another aircraft
@@ -30,7 +36,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import fields, replace
 
 import numpy as np
 
@@ -39,11 +45,15 @@ from jsbsim_env.control.base import AttitudeController
 from jsbsim_env.missions import RouteConfig, fly_route
 from jsbsim_env.sim.disturbances import RANDOMISED
 from jsbsim_env.task.versions import LATEST, task_version
+from training.evaluation.benchmark import STRESSED, StressedRoute
 from training.evaluation.report import ReportPlan, steady_mask, turbulent_metrics, window_metrics
 from training.evaluation.seeds import check_not_test_seed
 
 SEEDS = {"turbulent": 101, "table9": 102, "calm": 103}  # route seeds, none of them the report's ROUTE_SEED
 ROBUST_SEEDS = {"turbulent": 111, "table9": 112, "calm": 113}  # the robust flights' own
+STRESSED_SEEDS = {"delay_ms": 121, "servo_rate_limit_degps": 122}  # the stressed turbulent flights' own
+STRESSED_FLIGHT_S = 300.0  # as the benchmark's robustness flights
+FLIGHT_SETS = ("heldout", "robust", "stressed")
 RMSE_KEYS = ("rmse_roll_deg", "rmse_pitch_deg", "rmse_beta_deg")
 STEADY_AFTER_S = ReportPlan().steady_after_leg_change_s  # straight legs scored as in the report
 SURFACES = ("aileron", "elevator", "rudder")
@@ -54,27 +64,36 @@ SURFACES = ("aileron", "elevator", "rudder")
 CHATTER_LIMIT = 10.0
 
 
-def heldout_flights(quick: bool = False, aircraft=None, robust: bool = False) -> dict[str, RouteConfig]:
+def heldout_flights(quick: bool = False, aircraft=None, flights: str = "heldout") -> dict[str, RouteConfig]:
     """The held-out route flights by name (the names are the paper's aircraft's), flown by
     ``aircraft`` (the paper's by default); ``quick``: 30 s each, turbulence from the start, for checks;
-    ``robust``: the robust flights (module docstring)."""
-    seeds = ROBUST_SEEDS if robust else SEEDS
-    for name, seed in seeds.items():  # the held-out flights choose seeds: never on the frozen test set
-        check_not_test_seed(seed, f"held-out flights ({name})")
+    ``flights``: which set (``FLIGHT_SETS``, module docstring)."""
+    if flights not in FLIGHT_SETS:
+        raise ValueError(f"the held-out flights are one of {', '.join(FLIGHT_SETS)}, got {flights!r}")
+    seeds = ROBUST_SEEDS if flights == "robust" else SEEDS
+    for name, seed in (*seeds.items(), *(STRESSED_SEEDS.items() if flights == "stressed" else ())):
+        check_not_test_seed(seed, f"held-out flights ({name})")  # the held-out flights choose: never on the test set
     flown = load_aircraft(aircraft)
     base = RouteConfig(aircraft=flown.spec, eas_mps=flown.reference_eas_mps,
                        duration_s=30.0 if quick else 1200.0)
     turbulent_legs = (0,) if quick else (1, 2, 3)
     at = flown.altitude_like_m
-    flights = {"turbulent_5km": replace(base, altitude_m=at(5000.0), turbulence_legs=turbulent_legs,
-                                        seed=seeds["turbulent"]),
-               "positive_3km": replace(base, altitude_m=at(3000.0), parameters="positive", seed=seeds["table9"]),
-               "negative_3km": replace(base, altitude_m=at(3000.0), parameters="negative", seed=seeds["table9"]),
-               "calm_15km": replace(base, altitude_m=at(15000.0), seed=seeds["calm"])}
-    if robust:
-        flights = {name: training_conditions(config, turbulent_legs if name != "calm_15km" else (), k)
-                   for k, (name, config) in enumerate(flights.items())}
-    return flights
+    chosen = {"turbulent_5km": replace(base, altitude_m=at(5000.0), turbulence_legs=turbulent_legs,
+                                       seed=seeds["turbulent"]),
+              "positive_3km": replace(base, altitude_m=at(3000.0), parameters="positive", seed=seeds["table9"]),
+              "negative_3km": replace(base, altitude_m=at(3000.0), parameters="negative", seed=seeds["table9"]),
+              "calm_15km": replace(base, altitude_m=at(15000.0), seed=seeds["calm"])}
+    if flights == "robust":
+        chosen = {name: training_conditions(config, turbulent_legs if name != "calm_15km" else (), k)
+                  for k, (name, config) in enumerate(chosen.items())}
+    if flights == "stressed":
+        turbulent = chosen["turbulent_5km"]
+        for axis, seed in STRESSED_SEEDS.items():
+            stressed = StressedRoute(**{f.name: getattr(turbulent, f.name) for f in fields(RouteConfig)},
+                                     stress=((axis, STRESSED[axis]),))
+            chosen[f"turbulent_5km_{axis}"] = replace(stressed, turbulence_legs=(0,), seed=seed,
+                                                      duration_s=base.duration_s if quick else STRESSED_FLIGHT_S)
+    return chosen
 
 
 def training_conditions(config: RouteConfig, turbulence_legs: tuple[int, ...], draw: int) -> RouteConfig:
@@ -90,12 +109,12 @@ def training_conditions(config: RouteConfig, turbulence_legs: tuple[int, ...], d
 
 
 def heldout_scores(controller_factory: Callable[[], AttitudeController], quick: bool = False, aircraft=None,
-                   robust: bool = False) -> dict:
+                   flights: str = "heldout") -> dict:
     """Each held-out flight's scores (degrees) for a fresh controller from ``controller_factory``,
-    flown by ``aircraft`` (the paper's by default), and whether any flight ended early; ``robust``:
-    on the robust flights."""
+    flown by ``aircraft`` (the paper's by default), and whether any flight ended early; ``flights``:
+    which set (``FLIGHT_SETS``)."""
     scores: dict = {"ended_early": False}
-    for name, config in heldout_flights(quick, aircraft, robust).items():
+    for name, config in heldout_flights(quick, aircraft, flights).items():
         result = fly_route(controller_factory(), config)
         scores["ended_early"] |= bool(result.ended_early)
         if name == "calm_15km":
@@ -136,7 +155,11 @@ def relative_score(scores: dict, reference: dict) -> float:
     left out."""
     if scores["ended_early"] or chattering_surfaces(scores, reference):
         return math.inf
-    ratios = [(value, reference[flight][key]) for flight in heldout_flights() for key, value in scores[flight].items()]
+    flown = [flight for flight, measures in scores.items() if flight != "surface_activity" and isinstance(measures, dict)]
+    missing = [flight for flight in flown if flight not in reference]
+    if missing:
+        raise ValueError(f"the reference has not flown {', '.join(missing)}")
+    ratios = [(value, reference[flight][key]) for flight in flown for key, value in scores[flight].items()]
     logs = [math.log(v / r) for v, r in ratios if math.isfinite(v) and math.isfinite(r) and v > 0 and r > 0]
     if not logs:
         raise ValueError("no held-out measure to compare")

@@ -41,7 +41,7 @@ from jsbsim_env.missions import MissionResult, RouteConfig, fly_route
 REPORT_SEED = 2023
 EXPERIMENTS = ("doublets", "effectiveness", "route_10km", "perturbation", "altitudes", "backlash")
 CONTROLLERS = ("PID", "RL")  # flown by default
-EXTRA_CONTROLLERS = ("LQI", "PID_tuned", "LQI_tuned", "PID_robust", "LQI_robust")  # flown when named (factory: lower case)
+EXTRA_CONTROLLERS = ("LQI", "PID_tuned", "LQI_tuned", "PID_robust", "LQI_robust", "LQI_stressed")  # flown when named (factory: lower case)
 ROUTE_SEED = 11
 
 # The paper's figures (the paper's Section 5), for the tables.
