@@ -5,6 +5,8 @@
     python scripts/benchmark.py --controllers pid,policy --families turbulence,steps --quick --out /tmp/bench
     python scripts/benchmark.py --split validation --controllers policy,lqi_tuned --out runs/benchmark_validation
     python scripts/benchmark.py --split validation --controllers policy --compare runs/a/best_policy.pt --out runs/ab
+    python scripts/benchmark.py --controllers lqi_tuned --compare runs/s1/best_policy.pt runs/s2/best_policy.pt \
+        runs/s3/best_policy.pt --mean-of s1,s2,s3 --out runs/three_seeds   # each seed, and the recipe as their mean
 
 Every controller flies the same realisations (seeds of ``training.evaluation.seeds.TEST_SEEDS``,
 which only this command flies) of each flight family (``training.evaluation.benchmark``: turbulence
@@ -43,6 +45,7 @@ from training.evaluation.benchmark import (
     BenchmarkPlan,
     flown_labels,
     jobs_for,
+    mean_of_seeds,
     plan_dict,
     plot_family,
     render_markdown,
@@ -77,6 +80,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="more policy files, each flown as a controller of its own (named by its run folder, or its "
                         "file name), paired with the others: for choosing between trained policies on --split "
                         "validation")
+    p.add_argument("--mean-of", action="append", default=[], metavar="LABELS",
+                   help="comma-separated labels of --compare's policies (the seeds of one recipe), scored also as "
+                        "one candidate, mean(LABELS): each metric their mean on each realisation; repeatable")
     p.add_argument("--network-alone", action="store_true",
                    help="also fly each policy whose file records classical stages (goal trim, surface trim) "
                         "without them: what the network does by itself")
@@ -133,6 +139,13 @@ def main(argv=None) -> int:
     except ValueError as err:
         print(f"benchmark: --compare: {err}", file=sys.stderr)
         return 2
+    means = [[label.strip() for label in group.split(",")] for group in args.mean_of]
+    for labels in means:
+        unknown = [label for label in labels if label not in compared and not (label == "policy" and label in controllers)]
+        if unknown or len(labels) < 2 or len(set(labels)) != len(labels):
+            print(f"benchmark: --mean-of {','.join(labels)}: needs two or more different labels of --compare's "
+                  f"policies ({', '.join(compared) or 'none given'})", file=sys.stderr)
+            return 2
     from jsbsim_env.control.policy import PolicyFileError, shipped_policy_path
 
     flown = ({"policy": args.policy or shipped_policy_path()} if "policy" in controllers else {}) | compared
@@ -168,6 +181,9 @@ def main(argv=None) -> int:
     finally:
         bar.close()
     wall_s = time.perf_counter() - started
+    for labels in means:
+        name, mean_rows = mean_of_seeds(rows, labels)
+        rows, controllers = rows + mean_rows, [*controllers, name]
     try:
         with writing(out) as staging:
             record = write_results(staging, args, rows, controllers, families, flown_aircraft, command, info, wall_s)

@@ -202,3 +202,39 @@ def test_network_alone_flies_each_policy_without_its_classical_stages(tmp_path, 
                         str(tmp_path / "y")]) == 2  # v3 has no classical stage to take away
     with pytest.raises(ValueError, match="network_alone is a setting of a policy"):
         make_controller("pid", network_alone=True)
+
+
+def test_the_mean_of_seeds_is_one_candidate_paired_on_each_realisation(tmp_path, capsys, load_script, untrained_policy):
+    from training.evaluation.benchmark import mean_of_seeds
+
+    def row(controller, realisation, roll, ended=""):
+        return {"family": "turbulence", "condition": "1 km", "controller": controller, "realisation": realisation,
+                "seed": 800_000 + realisation, "ended_early": ended, "corner_free": True,
+                "rmse_roll_deg": roll, "rmse_pitch_deg": 0.2, "rmse_beta_deg": 0.3}
+
+    rows = [row("s1", 0, 0.1), row("s2", 0, 0.3), row("s1", 1, 0.2), row("s2", 1, math.nan, "pitch limit"),
+            row("s1", 2, 0.2), row("pid", 0, 0.5)]  # realisation 2: s2 did not fly it
+    name, mean = mean_of_seeds(rows, ["s1", "s2"])
+    assert name == "mean(s1,s2)" and [r["realisation"] for r in mean] == [0, 1]
+    assert mean[0]["rmse_roll_deg"] == pytest.approx(0.2) and mean[0]["rmse_pitch_deg"] == pytest.approx(0.2)
+    assert math.isnan(mean[1]["rmse_roll_deg"]) and mean[1]["ended_early"] == "s2: pitch limit"
+    for labels in (["s1"], ["s1", "s1"], ["s1", "s9"]):
+        with pytest.raises(ValueError):
+            mean_of_seeds(rows, labels)
+
+    script = load_script("benchmark")
+    a = untrained_policy(tmp_path / "runA" / "best_policy.pt", seed=1)
+    b = untrained_policy(tmp_path / "runB" / "best_policy.pt", seed=2)
+    out = tmp_path / "bench"
+    assert script.main(["--controllers", "pid", "--compare", str(a), str(b), "--mean-of", "runA,runB", "--families",
+                        "calm", "--episodes", "2", "--quick", "--split", "validation", "--json", "--out", str(out)]) == 0
+    record = json.loads(capsys.readouterr().out)
+    summary = record["summary"]["calm"]["1 km"]
+    assert "mean(runA,runB)" in summary["controllers"] and "pid - mean(runA,runB)" in summary["pairs"]
+    means = [summary["controllers"][c]["metrics"]["mae_roll_deg"]["mean"] for c in ("runA", "runB", "mean(runA,runB)")]
+    assert means[2] == pytest.approx((means[0] + means[1]) / 2)
+    assert "mean(runA,runB)" in {s["controller"] for s in record["selection"]}
+    for bad in ("runA", "runA,runC", "runA,runA"):
+        assert script.main(["--controllers", "pid", "--compare", str(a), str(b), "--mean-of", bad, "--out",
+                            str(tmp_path / "x")]) == 2
+        assert "--mean-of" in capsys.readouterr().err

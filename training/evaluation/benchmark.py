@@ -407,6 +407,38 @@ def summarise(rows: list[dict], controllers: list[str], method: str = "t") -> di
     return out
 
 
+def mean_of_seeds(rows: list[dict], labels: list[str]) -> tuple[str, list[dict]]:
+    """The seeds ``labels`` of one recipe as one candidate, ``mean(a,b,...)``, and its rows: on each
+    family's condition and realisation, each metric the mean of theirs (NaN where any is missing),
+    ended early where any of them did. Paired with the others on the same realisations, it asks
+    whether the recipe, rather than one of its seeds, is better."""
+    if len(labels) < 2 or len(set(labels)) != len(labels):
+        raise ValueError(f"a mean of seeds needs two or more different controllers, got {labels}")
+    flown = {r["controller"] for r in rows}
+    missing = [label for label in labels if label not in flown]
+    if missing:
+        raise ValueError(f"a mean of seeds names controllers that were not flown: {', '.join(missing)}")
+    name = f"mean({','.join(labels)})"
+    groups: dict[tuple, dict[str, dict]] = {}
+    for r in rows:
+        if r["controller"] in labels:
+            groups.setdefault((r["family"], r["condition"], r["realisation"]), {})[r["controller"]] = r
+    out = []
+    for (family, condition, realisation), by_label in groups.items():
+        if len(by_label) != len(labels):
+            continue  # a realisation some seed did not fly: not paired
+        first = by_label[labels[0]]
+        row = {"family": family, "condition": condition, "controller": name, "realisation": realisation,
+               "seed": first["seed"],
+               "ended_early": "; ".join(f"{k}: {r['ended_early']}" for k, r in by_label.items() if r["ended_early"]),
+               "corner_free": all(r["corner_free"] for r in by_label.values())}
+        for metric in FAMILIES[family].metrics:
+            values = np.array([by_label[k][metric] for k in labels], float)
+            row[metric] = float(values.mean()) if np.all(np.isfinite(values)) else math.nan
+        out.append(row)
+    return name, out
+
+
 def verdict_counts(summary: dict, family: str, a: str, b: str) -> dict[str, int]:
     """How many of ``family``'s metrics (each condition's each score) the pair ``a - b`` finds
     better, worse and not different at 95 % for ``a``."""
@@ -541,6 +573,6 @@ def plan_dict(quick: bool) -> dict:
 
 
 __all__ = ["FAMILIES", "BenchJob", "BenchmarkPlan", "StressedRoute", "condition_label", "corner_free", "corner_window",
-           "first_corner_s", "jobs_for",
+           "first_corner_s", "jobs_for", "mean_of_seeds",
            "plan_dict", "render_markdown", "route_config", "run_benchmark_job", "seed_of", "step_metrics", "summarise",
            "verdict_counts"]
