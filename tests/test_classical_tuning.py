@@ -167,6 +167,7 @@ def test_a_quick_tuning_on_other_flights_records_them_and_writes_a_table_the_lqi
 
 
 def test_the_stressed_tuning_is_the_lqis(tmp_path):
+    assert runpy.run_path(str(SCRIPT))["FLIGHT_SETS"] == heldout.FLIGHT_SETS  # spelled out there, to parse quickly
     with pytest.raises(SystemExit) as exc:
         _main(["--controller", "pid", "--flights", "stressed", "--budget", "2", "--quick", "--out", str(tmp_path / "p.json")])
     assert exc.value.code == 2

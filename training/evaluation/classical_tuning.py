@@ -131,11 +131,11 @@ def tuning_flights(quick: bool = False, aircraft=None, flights: str = "heldout")
     scores on, their seeds checked against the frozen test set; a test seed raises ``ValueError``
     naming the tool."""
     try:
-        flights = heldout.heldout_flights(quick, aircraft, flights)
+        chosen = heldout.heldout_flights(quick, aircraft, flights)
     except ValueError as err:
         raise ValueError(f"{TOOL}: {err}") from None
-    refuse_test_seeds([config.seed for config in flights.values()])
-    return flights
+    refuse_test_seeds([config.seed for config in chosen.values()])
+    return chosen
 
 
 # ---------------------------------------------------------------------------------- candidates
