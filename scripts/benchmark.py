@@ -43,6 +43,7 @@ from training.evaluation import selection
 from training.evaluation.benchmark import (
     FAMILIES,
     BenchmarkPlan,
+    check_seed_labels,
     flown_labels,
     jobs_for,
     mean_of_seeds,
@@ -140,11 +141,12 @@ def main(argv=None) -> int:
         print(f"benchmark: --compare: {err}", file=sys.stderr)
         return 2
     means = [[label.strip() for label in group.split(",")] for group in args.mean_of]
+    policies = [*(["policy"] if "policy" in controllers else []), *compared]
     for labels in means:
-        unknown = [label for label in labels if label not in compared and not (label == "policy" and label in controllers)]
-        if unknown or len(labels) < 2 or len(set(labels)) != len(labels):
-            print(f"benchmark: --mean-of {','.join(labels)}: needs two or more different labels of --compare's "
-                  f"policies ({', '.join(compared) or 'none given'})", file=sys.stderr)
+        try:
+            check_seed_labels(labels, policies)
+        except ValueError as err:
+            print(f"benchmark: --mean-of: {err}", file=sys.stderr)
             return 2
     from jsbsim_env.control.policy import PolicyFileError, shipped_policy_path
 

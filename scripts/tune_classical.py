@@ -34,7 +34,6 @@ from training.runtime import (
 
 DEFAULT_BUDGET = 100
 FLIGHT_SETS = ("heldout", "robust", "stressed")  # training.evaluation.heldout.FLIGHT_SETS, to parse without loading it
-TABLE_SUFFIX = {"heldout": "tuned", "robust": "robust", "stressed": "stressed"}  # the table written: <controller>_<suffix>
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -73,7 +72,8 @@ def main(argv: list[str] | None = None) -> int:
         designed = [gain_files.gain_file(kind, args.aircraft) for kind in ("pid", "lqi")]
     except (AircraftError, gain_files.GainsMissing) as err:
         parser.exit(2, f"tune_classical: --aircraft: {err}\n")
-    out = args.out or gain_files.gain_file_path(f"{args.controller}_{TABLE_SUFFIX[args.flights]}", args.aircraft)
+    suffix = next(s for s, flights in gain_files.TUNINGS.items() if flights == args.flights)  # the table written
+    out = args.out or gain_files.gain_file_path(f"{args.controller}_{suffix}", args.aircraft)
     if out.resolve() in {path.resolve() for path in designed}:
         parser.error(f"--out {out} is a shipped gain table, which tuning never replaces: give another file")
     # A table is read as the controller its name or its record says: never write one as the other's.

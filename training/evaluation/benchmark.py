@@ -407,17 +407,21 @@ def summarise(rows: list[dict], controllers: list[str], method: str = "t") -> di
     return out
 
 
+def check_seed_labels(labels: list[str], known) -> None:
+    """``ValueError`` unless ``labels`` are two or more different controllers among ``known``: the
+    seeds a mean of seeds (``mean_of_seeds``) is taken over."""
+    unknown = [label for label in labels if label not in known]
+    if len(labels) < 2 or len(set(labels)) != len(labels) or unknown:
+        raise ValueError(f"a mean of seeds needs two or more different controllers among {', '.join(known) or 'none'}, "
+                         f"got {','.join(labels)}")
+
+
 def mean_of_seeds(rows: list[dict], labels: list[str]) -> tuple[str, list[dict]]:
     """The seeds ``labels`` of one recipe as one candidate, ``mean(a,b,...)``, and its rows: on each
     family's condition and realisation, each metric the mean of theirs (NaN where any is missing),
     ended early where any of them did. Paired with the others on the same realisations, it asks
     whether the recipe, rather than one of its seeds, is better."""
-    if len(labels) < 2 or len(set(labels)) != len(labels):
-        raise ValueError(f"a mean of seeds needs two or more different controllers, got {labels}")
-    flown = {r["controller"] for r in rows}
-    missing = [label for label in labels if label not in flown]
-    if missing:
-        raise ValueError(f"a mean of seeds names controllers that were not flown: {', '.join(missing)}")
+    check_seed_labels(labels, list(dict.fromkeys(r["controller"] for r in rows)))
     name = f"mean({','.join(labels)})"
     groups: dict[tuple, dict[str, dict]] = {}
     for r in rows:
@@ -572,7 +576,7 @@ def plan_dict(quick: bool) -> dict:
     return asdict(BenchmarkPlan.quick() if quick else BenchmarkPlan())
 
 
-__all__ = ["FAMILIES", "BenchJob", "BenchmarkPlan", "StressedRoute", "condition_label", "corner_free", "corner_window",
+__all__ = ["FAMILIES", "BenchJob", "BenchmarkPlan", "StressedRoute", "check_seed_labels", "condition_label", "corner_free", "corner_window",
            "first_corner_s", "jobs_for", "mean_of_seeds",
            "plan_dict", "render_markdown", "route_config", "run_benchmark_job", "seed_of", "step_metrics", "summarise",
            "verdict_counts"]
