@@ -11,10 +11,10 @@ import pytest
 
 import jsbsim_env
 from jsbsim_env.control.observation import OBS_SIZE
-from jsbsim_env.control.stack import StackSettings
+from jsbsim_env.control.stack import FINE_RESIDUAL_AUTHORITY, RESIDUAL_AUTHORITY, StackSettings
 from jsbsim_env.sim.core import CoreConfig
 from jsbsim_env.task.attitude import TaskConfig
-from jsbsim_env.task.versions import LATEST, V0, V1, V2, V3, V5, V7, V8, V9, VERSIONS, TaskVersion, task_version
+from jsbsim_env.task.versions import LATEST, V0, V1, V2, V3, V5, V7, V8, V9, V10, VERSIONS, TaskVersion, task_version
 
 
 def test_v0_is_the_papers_task_flown_by_the_network_alone():
@@ -71,11 +71,18 @@ def test_v9_is_v7_on_the_lqi_tuned_with_stressed_flights():
     assert replace(V9.task, residual_on=V7.task.residual_on) == V7.task
 
 
+def test_v10_is_v7_with_a_twentieth_of_the_travel_as_its_correction():
+    assert V10.env_id == "SolarUAVAttitude-v10" and V10.trained_as_flown and V10.task.residual_on == "lqi_tuned"
+    assert V10.flight_stack == replace(V7.flight_stack, residual_authority=FINE_RESIDUAL_AUTHORITY)
+    assert V10.task.residual_authority == FINE_RESIDUAL_AUTHORITY < RESIDUAL_AUTHORITY == V7.task.residual_authority
+    assert replace(V10.task, residual_authority=V7.task.residual_authority) == V7.task
+
+
 def test_versions_are_listed_by_id_and_an_unknown_one_is_refused_naming_it():
     assert list(VERSIONS) == ["SolarUAVAttitude-v0", "SolarUAVAttitude-v1", "SolarUAVAttitude-v2",
                               "SolarUAVAttitude-v3", "SolarUAVAttitude-v4", "SolarUAVAttitude-v5",
                               "SolarUAVAttitude-v6", "SolarUAVAttitude-v7",
-                              "SolarUAVAttitude-v8", "SolarUAVAttitude-v9"]
+                              "SolarUAVAttitude-v8", "SolarUAVAttitude-v9", "SolarUAVAttitude-v10"]
     assert all(isinstance(v, TaskVersion) and VERSIONS[v.env_id] is v for v in VERSIONS.values())
     assert task_version("SolarUAVAttitude-v1") is V1 and task_version("SolarUAVAttitude-v0") is V0
     with pytest.raises(ValueError, match="'SolarUAVAttitude-v99'") as err:

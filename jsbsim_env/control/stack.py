@@ -203,6 +203,9 @@ class ControlStack:
 
 # The residual versions' correction: a quarter of each surface's travel (and of half the throttle range).
 RESIDUAL_AUTHORITY = 0.25
+# v10's: a twentieth, for a correction of the size a goal held in turbulence asks for, and exploration
+# that far smaller around the base.
+FINE_RESIDUAL_AUTHORITY = 0.05
 # The stack each registered task version (``jsbsim_env.task.versions``) flies with, by its id: what a
 # policy file that records the version must record as its stack (``policy.load_policy``).
 _GOAL_AND_SURFACE_TRIM = StackSettings(window_steps=8, goal_trim_time_constant_s=20.0, surface_trim_gain=2.0)
@@ -221,6 +224,7 @@ FLIGHT_STACKS = {
     "SolarUAVAttitude-v8": _RESIDUAL_ON_TUNED_LQI,
     "SolarUAVAttitude-v9": StackSettings(window_steps=8, residual_on="lqi_stressed",
                                          residual_authority=RESIDUAL_AUTHORITY),
+    "SolarUAVAttitude-v10": replace(_RESIDUAL_ON_TUNED_LQI, residual_authority=FINE_RESIDUAL_AUTHORITY),
 }
 
-__all__ = ["FLIGHT_STACKS", "RESIDUAL_AUTHORITY", "ControlStack", "StackSettings", "observation_row"]
+__all__ = ["FINE_RESIDUAL_AUTHORITY", "FLIGHT_STACKS", "RESIDUAL_AUTHORITY", "ControlStack", "StackSettings", "observation_row"]
