@@ -3,6 +3,7 @@
     python scripts/ablation.py runs/c2_seed0 runs/c2_seed1 runs/c2_seed2 --markdown
     python scripts/ablation.py runs/*_seed* --pid DIR --json
     python scripts/ablation.py --markdown > docs/ablation.md
+    python scripts/ablation.py --method-row runs/val_v10 v10
 
 With run folders: each run's best policy, flown as its policy file records it, on the evaluation
 suite, the calm 1 km and 20 km routes (steady-state error), the 10 km route (turbulent leg, level
@@ -16,7 +17,9 @@ the PID on the same flights as the reference row.
 
 Without run folders, ``--markdown`` prints docs/ablation.md: every candidate tried so far, from the
 figures recorded in ``scripts/ablation_rows.json`` (one row per candidate, the commit that added
-it, whether it was kept) and a paragraph on each decision kept.
+it, whether it was kept) and a paragraph on each decision kept; then the learning method's
+candidates (residual, distilled, more budget), each judged by the benchmark's selection rule.
+``--method-row`` prints the figures of one such row from a benchmark's results.
 """
 
 from __future__ import annotations
@@ -156,6 +159,39 @@ def markdown(groups: dict[str, list[dict]]) -> str:
     return "\n".join(lines)
 
 
+def method_row(result: dict, label: str) -> dict:
+    """The figures of a learned controller's row in the record's table of the learning method's
+    candidates, from a benchmark's ``benchmark.json`` (``result``) in which it flew as ``label``: the
+    flights (split, aircraft, families, realisations), the classical controllers it was judged
+    against, the selection rule's cells met and ratio (``training.evaluation.selection``, as the
+    benchmark recorded them), and at each turbulence altitude its RMSE roll / pitch / sideslip beside
+    the best classical controller's of each metric. A ``ValueError`` names what is missing."""
+    from training.evaluation.selection import best_classical, sides
+
+    try:
+        chosen = {s["controller"]: s for s in result["selection"]}
+        flown = result["controllers"]
+        turbulence = result["summary"].get("turbulence", {})
+        flights = {k: result[k] for k in ("split", "aircraft", "families", "episodes")}
+    except (KeyError, TypeError) as err:
+        raise ValueError(f"not a benchmark's benchmark.json with a selection (missing {err})") from None
+    if label not in chosen:
+        raise ValueError(f"{label!r} was not judged in this benchmark (its candidates: {', '.join(chosen) or 'none'})")
+    _, classical = sides(flown)
+    metrics = ("rmse_roll_deg", "rmse_pitch_deg", "rmse_beta_deg")
+
+    def rmse(entry: dict, pick) -> str:
+        return " / ".join(f"{entry['controllers'][pick(m)]['metrics'][m]['mean']:.3f}" for m in metrics)
+
+    picked = chosen[label]
+    return {**flights, "judged_against": classical, "cells_met": f"{picked['met']} of {picked['cells']}",
+            "ratio": f"{picked['ratio']:.3f}",
+            "turbulence_rmse_deg": {cond: rmse(e, lambda m: label) for cond, e in turbulence.items()},
+            "best_classical_turbulence_rmse_deg": {
+                cond: rmse(e, lambda m, e=e: best_classical(e, m, [c for c in classical if c in e["controllers"]]))
+                for cond, e in turbulence.items()}}
+
+
 # ---------------------------------------------------------------------- the record (docs/ablation.md)
 RECORD_INTRO = """\
 # What was tried
@@ -211,6 +247,22 @@ are the same either way.
 wall-clocks are not comparable with those above them.
 """
 
+METHOD_INTRO = """\
+## The learning method's candidates
+
+The rows above change the recipe of a network that flies alone. The candidates below change the
+method: a residual on an LQI (task versions v4 to v10), a network distilled from an LQI and then
+fine-tuned (`distill.teacher`), and the default recipe at seven times the budget. Each is judged by
+the benchmark's selection rule (`training.evaluation.selection`: each cell against the best
+classical controller flown beside it; *judged against* names them) on the flights named
+(*validation* or *test* seeds, 10 realisations per condition, the families flown), and its row's
+figures are what `python scripts/ablation.py --method-row BENCHMARK_DIR LABEL` reads from that
+benchmark. The turbulence columns give, at each of the aircraft's three altitudes, its RMSE roll /
+pitch / sideslip (°) and, below it, the best classical controller's of each metric; *training* is the run's wall clock for its 140,000
+steps (1,000,000 for the control run) with the machine's load named where it was not two runs side by
+side.
+"""
+
 PREVIOUS_INTRO = """\
 ## Before the corrected aircraft model
 
@@ -246,7 +298,19 @@ def record_markdown(record: dict) -> str:
         if "default" in marks:
             cells = [f"**{c}**" for c in cells]
         lines.append("| " + " | ".join(cells) + " |")
-    lines += ["", RECORD_NOTES, PREVIOUS_INTRO]
+    lines += ["", RECORD_NOTES, METHOD_INTRO]
+    head = ("candidate", "aircraft", "flights", "judged against", "cells met", "ratio", "turbulence, lowest",
+            "turbulence, middle", "turbulence, highest", "training, s", "tried at", "kept")
+    lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for row in record.get("method_rows", []):
+        best = row["best_classical_turbulence_rmse_deg"]
+        turbulence = [f"{cond}: {rmse}<br>{best[cond]}" for cond, rmse in row["turbulence_rmse_deg"].items()]
+        turbulence = (turbulence + ["—"] * 3)[:3]  # a benchmark flown without the turbulence family has none
+        flights = f"{row['split']}: {', '.join(row['families'])}"
+        cells = [row["candidate"], row["aircraft_name"], flights, ", ".join(row["judged_against"]), row["cells_met"],
+                 row["ratio"], *turbulence, row["training"], row["commit"], row["kept"]]
+        lines.append("| " + " | ".join(cells) + " |")
+    lines += ["", PREVIOUS_INTRO]
     steps = ("20k", "40k", "60k", "100k", "200k")
     head = ("run", "updates per step", *(f"{s} steps" for s in steps), "time to 60k steps", "tried at", "kept")
     lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
@@ -274,7 +338,21 @@ def main(argv: list[str] | None = None) -> int:
                         help="print the table as Markdown; without run folders, docs/ablation.md: every candidate "
                              f"tried, from {RECORD.name}")
     parser.add_argument("--quick", action="store_true", help="short routes, for checks")
+    parser.add_argument("--method-row", nargs=2, metavar=("BENCHMARK_DIR", "LABEL"),
+                        help="print as JSON the figures of the learned controller LABEL in the benchmark written to "
+                             f"BENCHMARK_DIR, for its row in {RECORD.name}'s table of the learning method's candidates")
     args = parser.parse_args(argv)
+    if args.method_row:
+        if args.runs or args.markdown or args.pid:
+            parser.error("--method-row reads a benchmark's results: give it alone")
+        folder, label = args.method_row
+        if not (Path(folder) / "benchmark.json").is_file():
+            parser.exit(2, f"ablation: {folder} has no benchmark.json (scripts/benchmark.py --out writes it)\n")
+        try:
+            print(json.dumps(method_row(read_json(Path(folder) / "benchmark.json"), label), indent=1))
+        except (OutputFolderError, ValueError) as err:
+            parser.exit(2, f"ablation: {err}\n")
+        return 0
     if not args.runs:
         if not args.markdown or args.pid:
             parser.error("give run folders to score, or --markdown alone for the record of every candidate tried")
