@@ -80,10 +80,18 @@ def _group_pids(pgid: int) -> set[int]:
     return {int(p) for p in out.split()}
 
 
+# Runs the command with Ctrl-C's default action, as a terminal's foreground job has it: a suite started
+# in the background of a shell without job control (nohup, ``&`` in a script) runs with SIGINT
+# ignored, every process it starts inherits that, and Python then never raises KeyboardInterrupt.
+# The same process (exec), so that it leads its process group as the command itself would.
+AS_IN_A_TERMINAL = ("import os, signal, sys; signal.signal(signal.SIGINT, signal.SIG_DFL); "
+                    "os.execv(sys.executable, [sys.executable, *sys.argv[1:]])")
+
+
 @pytest.mark.parametrize("when", ["workers starting", "flights under way"])
 def test_ctrl_c_stops_the_benchmark_and_its_workers_in_one_line(when, tmp_path):
-    proc = subprocess.Popen([sys.executable, str(SCRIPTS / "benchmark.py"), "--controllers", "policy,pid",
-                             "--families", "turbulence", "--episodes", "10", "--workers", "2", "--no-progress",
+    proc = subprocess.Popen([sys.executable, "-c", AS_IN_A_TERMINAL, str(SCRIPTS / "benchmark.py"),
+                             "--controllers", "policy,pid", "--families", "turbulence", "--episodes", "10", "--workers", "2", "--no-progress",
                              "--out", str(tmp_path)], cwd=ROOT, env=_two_thread_env(), text=True,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
     try:
