@@ -3,7 +3,7 @@
     python scripts/ablation.py runs/c2_seed0 runs/c2_seed1 runs/c2_seed2 --markdown
     python scripts/ablation.py runs/*_seed* --pid DIR --json
     python scripts/ablation.py --markdown > docs/ablation.md
-    python scripts/ablation.py --method-row runs/val_v10 v10
+    python scripts/ablation.py --method-row runs/method/val_v10 v10
 
 With run folders: each run's best policy, flown as its policy file records it, on the evaluation
 suite, the calm 1 km and 20 km routes (steady-state error), the 10 km route (turbulent leg, level
@@ -258,9 +258,9 @@ classical controller flown beside it; *judged against* names them) on the flight
 (*validation* or *test* seeds, 10 realisations per condition, the families flown), and its row's
 figures are what `python scripts/ablation.py --method-row BENCHMARK_DIR LABEL` reads from that
 benchmark. The turbulence columns give, at each of the aircraft's three altitudes, its RMSE roll /
-pitch / sideslip (°) and, below it, the best classical controller's of each metric; *training* is the run's wall clock for its 140,000
-steps (1,000,000 for the control run) with the machine's load named where it was not two runs side by
-side.
+pitch / sideslip (°) and, below it, the best classical controller's of each metric; *training* is
+the run's wall clock for its 140,000 steps (1,000,000 for the control run), with the machine's load
+named where it was not two runs side by side.
 """
 
 PREVIOUS_INTRO = """\
