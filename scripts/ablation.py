@@ -166,6 +166,7 @@ def method_row(result: dict, label: str) -> dict:
     against, the selection rule's cells met and ratio (``training.evaluation.selection``, as the
     benchmark recorded them), and at each turbulence altitude its RMSE roll / pitch / sideslip beside
     the best classical controller's of each metric. A ``ValueError`` names what is missing."""
+    from training.evaluation.benchmark import ROUTE_METRICS
     from training.evaluation.selection import best_classical, sides
 
     try:
@@ -178,7 +179,7 @@ def method_row(result: dict, label: str) -> dict:
     if label not in chosen:
         raise ValueError(f"{label!r} was not judged in this benchmark (its candidates: {', '.join(chosen) or 'none'})")
     _, classical = sides(flown)
-    metrics = ("rmse_roll_deg", "rmse_pitch_deg", "rmse_beta_deg")
+    metrics = tuple(ROUTE_METRICS)  # roll, pitch, sideslip, as the benchmark recorded them
 
     def rmse(entry: dict, pick) -> str:
         return " / ".join(f"{entry['controllers'][pick(m)]['metrics'][m]['mean']:.3f}" for m in metrics)
