@@ -140,8 +140,9 @@ def cell(cards: list[dict], where: tuple[str, str]) -> str:
     elif key == "level_flight":
         values = np.array([_pair(c["route_10km"][key], ("mae_roll_deg", "mae_pitch_deg")) for c in cards])
     else:
-        values = np.array([_pair(c[section][key], ("rmse_roll_deg", "rmse_pitch_deg", "rmse_beta_deg"))
-                           for c in cards])
+        from jsbsim_env.task.metrics import ATTITUDE_RMSE_KEYS
+
+        values = np.array([_pair(c[section][key], ATTITUDE_RMSE_KEYS) for c in cards])
     fmt = "{:.0f}" if key == "ended_early" else "{:.3f}"
     text = " / ".join(fmt.format(v) for v in values.mean(axis=0))
     if len(cards) > 1 and key == "mean_return_norm":
@@ -166,7 +167,7 @@ def method_row(result: dict, label: str) -> dict:
     against, the selection rule's cells met and ratio (``training.evaluation.selection``, as the
     benchmark recorded them), and at each turbulence altitude its RMSE roll / pitch / sideslip beside
     the best classical controller's of each metric. A ``ValueError`` names what is missing."""
-    from training.evaluation.benchmark import ROUTE_METRICS
+    from jsbsim_env.task.metrics import ATTITUDE_RMSE_KEYS
     from training.evaluation.selection import best_classical, sides
 
     try:
@@ -179,7 +180,7 @@ def method_row(result: dict, label: str) -> dict:
     if label not in chosen:
         raise ValueError(f"{label!r} was not judged in this benchmark (its candidates: {', '.join(chosen) or 'none'})")
     _, classical = sides(flown)
-    metrics = tuple(ROUTE_METRICS)  # roll, pitch, sideslip, as the benchmark recorded them
+    metrics = ATTITUDE_RMSE_KEYS  # roll, pitch, sideslip, as the benchmark recorded them
 
     def rmse(entry: dict, pick) -> str:
         return " / ".join(f"{entry['controllers'][pick(m)]['metrics'][m]['mean']:.3f}" for m in metrics)

@@ -26,6 +26,9 @@ def rmse(signal: np.ndarray, reference: np.ndarray | float = 0.0) -> float:
     return float(np.sqrt(np.mean(err * err)))
 
 
+# The attitude errors every comparison judges (``EpisodeRecorder.tracking_metrics``'s keys): roll,
+# pitch and sideslip RMSE in degrees.
+ATTITUDE_RMSE_KEYS = ("rmse_roll_deg", "rmse_pitch_deg", "rmse_beta_deg")
 ACTUATORS = ("aileron", "elevator", "rudder", "throttle")
 
 

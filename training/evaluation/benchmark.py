@@ -46,6 +46,7 @@ from aircraft import AIRCRAFT_NAME, Aircraft, load_aircraft
 from jsbsim_env.missions import MissionResult, RouteConfig
 from jsbsim_env.sim import disturbances as dist
 from jsbsim_env.sim.core import CoreConfig
+from jsbsim_env.task.metrics import ATTITUDE_RMSE_KEYS
 from training.evaluation import selection
 from training.evaluation.seeds import SPLITS
 from training.evaluation.stats import LOWER_IS_BETTER, VERDICTS, paired_difference
@@ -72,7 +73,7 @@ class BenchmarkPlan:
                    corner_window_s=15.0, quick_square_m=1200.0)
 
 
-ROUTE_METRICS = {"rmse_roll_deg": LOWER_IS_BETTER, "rmse_pitch_deg": LOWER_IS_BETTER, "rmse_beta_deg": LOWER_IS_BETTER}
+ROUTE_METRICS = dict.fromkeys(ATTITUDE_RMSE_KEYS, LOWER_IS_BETTER)
 STEP_METRICS = {"rise_time_s": LOWER_IS_BETTER, "overshoot_pct": LOWER_IS_BETTER, "settling_time_s": LOWER_IS_BETTER,
                 "itae_deg_s2": LOWER_IS_BETTER}
 # The corner's path is L1's (the cross-track error at the leg change is the turn radius, the same for

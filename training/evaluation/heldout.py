@@ -44,6 +44,7 @@ from aircraft import load_aircraft
 from jsbsim_env.control.base import AttitudeController
 from jsbsim_env.missions import RouteConfig, fly_route
 from jsbsim_env.sim.disturbances import RANDOMISED
+from jsbsim_env.task.metrics import ATTITUDE_RMSE_KEYS
 from jsbsim_env.task.versions import LATEST, task_version
 from training.evaluation.benchmark import STRESSED, StressedRoute
 from training.evaluation.report import ReportPlan, steady_mask, turbulent_metrics, window_metrics
@@ -54,7 +55,6 @@ ROBUST_SEEDS = {"turbulent": 111, "table9": 112, "calm": 113}  # the robust flig
 STRESSED_SEEDS = {"delay_ms": 121, "servo_rate_limit_degps": 122}  # the stressed turbulent flights' own
 STRESSED_FLIGHT_S = 300.0  # as the benchmark's robustness flights
 FLIGHT_SETS = ("heldout", "robust", "stressed")
-RMSE_KEYS = ("rmse_roll_deg", "rmse_pitch_deg", "rmse_beta_deg")
 STEADY_AFTER_S = ReportPlan().steady_after_leg_change_s  # straight legs scored as in the report
 SURFACES = ("aileron", "elevator", "rudder")
 # Measured on this flight's straight legs (the largest of the three ratios to the PID's): 1.1 to
@@ -128,8 +128,8 @@ def heldout_scores(controller_factory: Callable[[], AttitudeController], quick: 
         if metrics is None:
             if not result.ended_early:
                 raise RuntimeError(f"{name}: the route never reached its turbulent legs {config.turbulence_legs}")
-            metrics = dict.fromkeys(RMSE_KEYS, math.nan)  # crashed before them: ended_early says it
-        scores[name] = {k: float(metrics[k]) for k in RMSE_KEYS}
+            metrics = dict.fromkeys(ATTITUDE_RMSE_KEYS, math.nan)  # crashed before them: ended_early says it
+        scores[name] = {k: float(metrics[k]) for k in ATTITUDE_RMSE_KEYS}
     return scores
 
 

@@ -28,18 +28,18 @@ from __future__ import annotations
 import math
 
 from jsbsim_env.control.factory import CONTROLLER_NAMES
+from jsbsim_env.task.metrics import ATTITUDE_RMSE_KEYS
 
 CLASSICAL = tuple(c for c in CONTROLLER_NAMES if c != "policy")
 CALM_BOUND_DEG = 0.05
 ACTIVITY_FACTOR = 2.0  # calm-air surface activity: at most twice the best classical controller's
 TURBULENCE_BETTER_SHARE = 2.0 / 3.0  # of the turbulence cells, better at 95 % (six of nine)
-_ROUTE = ("rmse_roll_deg", "rmse_pitch_deg", "rmse_beta_deg")
 # family -> ((metrics judged, what meeting a cell asks: "not worse", "within bound" or "within factor"), ...)
 CRITERIA = {
-    "turbulence": ((_ROUTE, "not worse"),),
-    "table9": ((_ROUTE, "not worse"),),
+    "turbulence": ((ATTITUDE_RMSE_KEYS, "not worse"),),
+    "table9": ((ATTITUDE_RMSE_KEYS, "not worse"),),
     "steps": ((("settling_time_s", "overshoot_pct"), "not worse"),),
-    "robustness": ((_ROUTE, "not worse"),),
+    "robustness": ((ATTITUDE_RMSE_KEYS, "not worse"),),
     "calm": ((("mae_roll_deg", "mae_pitch_deg"), "within bound"),
              (("smoothness_aileron", "smoothness_elevator", "smoothness_rudder"), "within factor")),
 }
