@@ -93,7 +93,8 @@ def test_ctrl_c_stops_the_benchmark_and_its_workers_in_one_line(when, tmp_path):
     proc = subprocess.Popen([sys.executable, "-c", AS_IN_A_TERMINAL, str(SCRIPTS / "benchmark.py"),
                              "--controllers", "policy,pid", "--families", "turbulence", "--episodes", "10",
                              "--workers", "2", "--no-progress", "--out", str(tmp_path)],
-                            cwd=ROOT, env=_two_thread_env(), text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+                            cwd=ROOT, env=_two_thread_env(), text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            start_new_session=True)
     try:
         # The command, multiprocessing's resource tracker, then the workers: Ctrl-C as the first
         # worker starts (it is still importing), or once both fly.
