@@ -108,11 +108,14 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def compare_labels(paths, controllers: list[str]) -> dict[str, str]:
-    """``--compare``'s files by label: a run's ``best_policy.pt`` by its run folder's name, another
+    """``--compare``'s files by label: a run's ``best_policy.pt`` by its run folder's name, its
+    ``picked_policy.pt`` (``scripts/heldout.py --checkpoints``) by that name and ``_picked``, another
     file by its name without suffix; a label that repeats, or names a controller, is refused."""
     labels: dict[str, str] = {}
     for path in paths:
-        label = path.parent.name if path.name == "best_policy.pt" and path.parent.name else path.stem
+        label = path.stem
+        if path.name in ("best_policy.pt", "picked_policy.pt") and path.parent.name:
+            label = path.parent.name + ("_picked" if path.name == "picked_policy.pt" else "")
         if label in labels or label in controllers:
             raise ValueError(f"two controllers would be named {label!r} ({path}); give files whose run folders or "
                              "names differ")

@@ -153,6 +153,8 @@ def test_compare_flies_more_policy_files_as_controllers_of_their_own(tmp_path, c
     a = untrained_policy(tmp_path / "runA" / "best_policy.pt", seed=1)
     b = untrained_policy(tmp_path / "candidate.pt", seed=2)
     assert script.compare_labels([a, b], ["pid"]) == {"runA": str(a), "candidate": str(b)}
+    picked = a.parent / "picked_policy.pt"  # scripts/heldout.py --checkpoints's choice, beside the best
+    assert script.compare_labels([a, picked], ["pid"]) == {"runA": str(a), "runA_picked": str(picked)}
     with pytest.raises(ValueError, match="'candidate'"):
         script.compare_labels([b, b], ["pid"])
     jobs = jobs_for(["calm"], ["pid"], 1, True, "validation", {"runA": str(a)})

@@ -136,3 +136,37 @@ def test_a_crash_before_the_turbulence_is_an_early_end_not_an_error(monkeypatch)
     assert scores["ended_early"] and all(math.isnan(v) for v in scores["turbulent_5km"].values())
     assert scores["negative_3km"]["rmse_roll_deg"] == 9.0
     assert heldout.relative_score(scores, _scores(0.4)) == math.inf
+
+
+def test_checkpoints_picks_among_the_evaluated_policies_and_writes_the_pick(tmp_path, tiny_config):
+    """A run keeps every policy it evaluated; ``--checkpoints`` flies them all and the PID and
+    writes the best relative to the PID as the run's ``picked_policy.pt``, a copy of that file."""
+    from training.trainer import EVALUATED_DIR, Trainer, evaluated_policy_name
+
+    run = tmp_path / "tiny"
+    Trainer(tiny_config(192), run).train()
+    kept = sorted((run / EVALUATED_DIR).iterdir())
+    assert [p.name for p in kept] == [evaluated_policy_name(f) for f in (96, 192)]
+    assert checked_load(kept[0])["frames"] == 96 and checked_load(kept[1])["frames"] == 192
+    done = subprocess.run([sys.executable, str(SCRIPT), str(run), "--checkpoints", "--quick"], check=False,
+                          capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert [line.split(" |")[0] for line in done.stdout.splitlines()[2:5]] == [
+        "| PID", "| tiny/policy_00000096", "| tiny/policy_00000192"]
+    record = json.loads((run / "picked_policy.json").read_text())
+    assert set(record["candidates"]) == {str(p) for p in kept}
+    picked = Path(record["picked"])
+    assert (run / "picked_policy.pt").read_bytes() == picked.read_bytes()
+    scores = {path: row["relative_to_pid"] for path, row in record["candidates"].items()}
+    assert scores[str(picked)] == min(scores.values())
+    assert done.stdout.splitlines()[-1].startswith(f"picked: {picked} ")
+
+
+def test_checkpoints_refuses_a_run_without_evaluated_policies(tmp_path, untrained_run):
+    run = untrained_run(tmp_path, "cand_seed0", 0)
+    done = subprocess.run([sys.executable, str(SCRIPT), str(run), "--checkpoints"], check=False, capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 2 and "holds no evaluated policies" in done.stderr
+    done = subprocess.run([sys.executable, str(SCRIPT), str(run), "--checkpoints", "--pick"], check=False,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2 and "give one of them" in done.stderr

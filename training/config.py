@@ -313,6 +313,9 @@ class LogSettings:
     eval_episodes: int = _f(8, "fixed, seeded evaluation episodes, flown side by side",
                             Number(1, MAX_AIRCRAFT, integer=True))
     checkpoint_every_frames: int = _f(10_000, "environment steps between checkpoints", POSITIVE_INT)
+    keep_evaluated: bool = _f(True, "keep every evaluated policy in the run's evaluated/ folder (about 0.4 MB each), "
+                                    "for a choice among them on held-out flights (scripts/heldout.py --checkpoints)",
+                              Flag())
     progress: bool = _f(True, "show a progress bar", Flag())
 
 

@@ -69,6 +69,14 @@ STORED_KEYS = ("observation", "action", ("next", "observation"), ("next", "rewar
                ("next", "terminated"), ("next", "achieved"))
 EVAL_MAX_STEPS = 500  # interactions per evaluation episode during training
 DISTILLED_POLICY = "distilled_policy.pt"  # a distilling run's network as distilled, before SAC
+# Every evaluated policy, by its env steps (``log.keep_evaluated``), for a choice among them on other
+# flights than the training's evaluation (``scripts/heldout.py --checkpoints``).
+EVALUATED_DIR = "evaluated"
+
+
+def evaluated_policy_name(frames: int) -> str:
+    """The file name of the policy evaluated at ``frames`` env steps, in ``EVALUATED_DIR``."""
+    return f"policy_{frames:08d}.pt"
 
 
 def stored_keys(task: TaskConfig, privileged: bool = False) -> tuple:
@@ -86,10 +94,10 @@ CSV_FIELDS = ("frames", "updates", "wall_s", "env_steps_per_s", "episodes", "epi
 # over it. Without them the run stopped before its first checkpoint, and a new run replaces the
 # files of LOG_FILES it left.
 RUN_FILES = ("checkpoint.pt", "best_policy.pt")
-LOG_FILES = ("config.json", "progress.csv", "progress.csv.tmp", "sessions.jsonl", "tb")
+LOG_FILES = ("config.json", "progress.csv", "progress.csv.tmp", "sessions.jsonl", "tb", EVALUATED_DIR)
 # ``atomic_save``'s temporary files (``tempfile.mkstemp(prefix=f".{name}.")``: 8 characters of
 # [a-z0-9_]), which a process killed while writing leaves behind.
-_TEMPORARY = re.compile(r"\.(checkpoint\.pt|best_policy\.pt)\.[a-z0-9_]{8}")
+_TEMPORARY = re.compile(r"\.(checkpoint\.pt|best_policy\.pt|policy_[0-9]{8}\.pt)\.[a-z0-9_]{8}")
 
 
 def _short(value) -> str:
@@ -327,18 +335,20 @@ class Trainer:
 
     def remove_stale_temporaries(self) -> list[str]:
         """Remove what writers killed in this folder left (``atomic_save``'s temporaries of
-        ``checkpoint.pt`` and ``best_policy.pt``, the progress log's); returns their names. Only
-        safe under the run's lock, which no other trainer holds: no live writer owns them."""
+        ``checkpoint.pt``, ``best_policy.pt`` and the evaluated policies, the progress log's);
+        returns their names. Only safe under the run's lock, which no other trainer holds: no live
+        writer owns them."""
         removed = []
-        try:
-            names = [p.name for p in self.run_dir.iterdir()]
-        except OSError:
-            return removed
-        for name in names:
-            if _TEMPORARY.fullmatch(name) or name == "progress.csv.tmp":
-                with contextlib.suppress(OSError):
-                    (self.run_dir / name).unlink()
-                    removed.append(name)
+        for folder in (self.run_dir, self.run_dir / EVALUATED_DIR):
+            try:
+                names = [p.name for p in folder.iterdir()]
+            except OSError:
+                continue
+            for name in names:
+                if _TEMPORARY.fullmatch(name) or name == "progress.csv.tmp":
+                    with contextlib.suppress(OSError):
+                        (folder / name).unlink()
+                        removed.append(name)
         return removed
 
     def _folder_error(self, err: OSError | None = None) -> RunFolderError:
@@ -728,7 +738,13 @@ class Trainer:
         return result
 
     def _keep_if_best(self, result: dict) -> None:
-        """The policy evaluated as ``result`` becomes ``best_policy.pt`` where it beats the best so far."""
+        """The policy evaluated as ``result`` is kept in ``EVALUATED_DIR`` (``log.keep_evaluated``) and
+        becomes ``best_policy.pt`` where it beats the best so far."""
+        if self.config.log.keep_evaluated:
+            with self._writing():
+                (self.run_dir / EVALUATED_DIR).mkdir(exist_ok=True)
+            self.save_policy(self.run_dir / EVALUATED_DIR / evaluated_policy_name(self.counters.frames),
+                             {**result, "frames": self.counters.frames})
         if result["return_norm"] > self.counters.best_eval:
             self.save_policy(self.run_dir / "best_policy.pt", {**result, "frames": self.counters.frames})
             self.counters.best_eval = result["return_norm"]
