@@ -13,7 +13,7 @@ choices made with the benchmark's measures (``scripts/benchmark.py --split valid
 | benchmark, ``--split validation`` | ``VALIDATION_SEEDS``: 800,000 to 800,999 |
 | report's routes | ``report.ROUTE_SEED`` 11 |
 | report's doublets, suite's doublets | their altitude: 500, 5,000, 15,000 |
-| held-out flights (``--pick``) | ``heldout.SEEDS``: 101, 102, 103 |
+| held-out flights (``--pick``, ``--checkpoints``) | ``heldout.SEEDS``: 101, 102, 103 |
 | suite's episodes (evaluate, ablation) | ``suite.EVAL_EPISODE_SEED`` 777 + k |
 | sweeps | ``sweep.SWEEP_EPISODE_SEED`` 31,000 + k |
 | training's evaluation episodes | drawn from the environment's seed ``trainer.EVAL_SEED`` |
