@@ -14,7 +14,8 @@ with ``scripts/ship_policy.py``.
 ``--checkpoints`` chooses within each run instead: it flies every policy the run evaluated
 (``evaluated/``, kept by ``log.keep_evaluated``) and the PID, and writes the one best relative to the
 PID, by the same score, as the run's ``picked_policy.pt`` (a copy of that file, so it flies as it was
-trained), with every candidate's scores in ``picked_policy.json``. The training's own evaluation,
+trained), with every candidate's scores in ``picked_policy.json``; a ``picked_policy.pt`` that is
+none of the run's evaluated policies is not this command's and is left alone. The training's own evaluation,
 which chooses ``best_policy.pt``, flies short episodes of goal steps; the held-out flights are the
 tuned classical controllers' tuning flights: route legs in turbulence, the Table 9 aircraft and calm
 straight legs.
@@ -111,6 +112,11 @@ def main(argv: list[str] | None = None) -> int:
                 parser.error(f"{run} holds no evaluated policies (evaluated/policy_*.pt): it was trained with "
                              "--log.keep_evaluated false, or by a version of the package that did not keep them")
             files |= {f"{run.name}/{path.stem}": path for path in kept}
+            earlier = run / PICKED_POLICY  # replaced only where it is an earlier pick of this run's policies
+            if earlier.exists() and (not earlier.is_file()
+                                     or earlier.read_bytes() not in {path.read_bytes() for path in kept}):
+                parser.error(f"{earlier} is not one of the run's evaluated policies: it was not written by "
+                             "--checkpoints, so it is left alone; move it away first")
         elif (run / "best_policy.pt").is_file():
             files[run.name] = run / "best_policy.pt"
         else:

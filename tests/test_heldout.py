@@ -160,6 +160,12 @@ def test_checkpoints_picks_among_the_evaluated_policies_and_writes_the_pick(tmp_
     scores = {path: row["relative_to_pid"] for path, row in record["candidates"].items()}
     assert scores[str(picked)] == min(scores.values())
     assert done.stdout.splitlines()[-1].startswith(f"picked: {picked} ")
+    # A picked_policy.pt that is none of the run's policies is not this command's: left alone.
+    (run / "picked_policy.pt").write_bytes(b"mine")
+    refused = subprocess.run([sys.executable, str(SCRIPT), str(run), "--checkpoints", "--quick"], check=False,
+                             capture_output=True, text=True, timeout=120)
+    assert refused.returncode == 2 and "left alone" in refused.stderr
+    assert (run / "picked_policy.pt").read_bytes() == b"mine"
 
 
 def test_checkpoints_refuses_a_run_without_evaluated_policies(tmp_path, untrained_run):
