@@ -25,9 +25,7 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import sys
-import tempfile
 from pathlib import Path
 
 # torch and the simulation load in the functions, after the arguments are parsed.
@@ -67,18 +65,12 @@ def evaluated_policies(run: Path) -> list[Path]:
 def write_pick(run: Path, rows: dict[str, dict], files: dict[str, Path], picked: str) -> None:
     """``picked``'s file copied to ``run/PICKED_POLICY`` and the scores of every candidate of the run
     beside it (``picked_policy.json``), each written whole or not at all."""
+    from training.output_folders import write_bytes_atomic, write_json_atomic
+
     record = {"picked": str(files[picked]), "score": "relative_score to the PID on the held-out flights",
               "candidates": {str(files[name]): rows[name] for name in files}, "pid": rows["PID"]}
-    for target, data in ((run / PICKED_POLICY, files[picked].read_bytes()),
-                         (run / "picked_policy.json", json.dumps(record, indent=1).encode())):
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", dir=run)
-        try:
-            with os.fdopen(fd, "wb") as fh:
-                fh.write(data)
-            os.replace(tmp, target)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
+    write_bytes_atomic(run / PICKED_POLICY, files[picked].read_bytes())
+    write_json_atomic(run / "picked_policy.json", record, indent=1)
 
 
 def main(argv: list[str] | None = None) -> int:

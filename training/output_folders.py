@@ -47,11 +47,20 @@ def write_json_atomic(path: Path | str, data, **dump_options) -> None:
 
 def write_text_atomic(path: Path | str, text: str) -> None:
     """``path`` holds ``text``, whole or as it was (see ``write_json_atomic``)."""
+    _write_atomic(path, text, "w")
+
+
+def write_bytes_atomic(path: Path | str, data: bytes) -> None:
+    """``path`` holds ``data``, whole or as it was (see ``write_json_atomic``)."""
+    _write_atomic(path, data, "wb")
+
+
+def _write_atomic(path: Path | str, data: str | bytes, mode: str) -> None:
     path = Path(path)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
+        with os.fdopen(fd, mode) as fh:
+            fh.write(data)
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)

@@ -740,13 +740,11 @@ class Trainer:
     def _keep_if_best(self, result: dict) -> None:
         """The policy evaluated as ``result`` is kept in ``EVALUATED_DIR`` (``log.keep_evaluated``) and
         becomes ``best_policy.pt`` where it beats the best so far."""
-        if self.config.log.keep_evaluated:
-            with self._writing():
-                (self.run_dir / EVALUATED_DIR).mkdir(exist_ok=True)
-            self.save_policy(self.run_dir / EVALUATED_DIR / evaluated_policy_name(self.counters.frames),
-                             {**result, "frames": self.counters.frames})
+        evaluation = {**result, "frames": self.counters.frames}
+        if self.config.log.keep_evaluated:  # atomic_save makes the folder
+            self.save_policy(self.run_dir / EVALUATED_DIR / evaluated_policy_name(self.counters.frames), evaluation)
         if result["return_norm"] > self.counters.best_eval:
-            self.save_policy(self.run_dir / "best_policy.pt", {**result, "frames": self.counters.frames})
+            self.save_policy(self.run_dir / "best_policy.pt", evaluation)
             self.counters.best_eval = result["return_norm"]
 
     # ------------------------------------------------------------------ logging
